@@ -1,0 +1,82 @@
+#include "csv.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <string_view>
+
+#include "commands.hpp"
+
+namespace airmass::cli {
+
+namespace {
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+    return s;
+}
+
+bool parse_double(std::string_view s, double& out) {
+    s = trim(s);
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    const auto r = std::from_chars(s.data(), s.data() + s.size(), out);
+    return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+std::vector<std::string_view> split(std::string_view line) {
+    std::vector<std::string_view> fields;
+    size_t start = 0;
+    for (;;) {
+        const size_t comma = line.find(',', start);
+        fields.push_back(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+    }
+    return fields;
+}
+
+}  // namespace
+
+std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<std::string>& names) {
+    std::vector<NumericRow> rows;
+    std::string line;
+    size_t line_no = 0;
+    bool first = true;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const std::string_view l = trim(line);
+        if (l.empty() || l.front() == '#') continue;
+        const auto fields = split(l);
+        double probe;
+        if (first && !parse_double(fields[0], probe)) {  // a header line
+            first = false;
+            continue;
+        }
+        first = false;
+        if (fields.size() != names.size()) {
+            std::string expect;
+            for (const auto& n : names) expect += (expect.empty() ? "" : ",") + n;
+            throw CliError("line " + std::to_string(line_no) + ": expected " + std::to_string(names.size()) +
+                           " comma-separated values (" + expect + "), got " + std::to_string(fields.size()));
+        }
+        NumericRow row{line_no, std::vector<double>(fields.size())};
+        for (size_t k = 0; k < fields.size(); ++k) {
+            if (!parse_double(fields[k], row.values[k]) || !std::isfinite(row.values[k]))
+                throw CliError("line " + std::to_string(line_no) + ": " + names[k] + " is not a finite number: '" +
+                               std::string(trim(fields[k])) + "'");
+        }
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+std::string format_g17(double v) {
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+}  // namespace airmass::cli

@@ -1,0 +1,21 @@
+// airmass: the command-line front end of libairmass.
+#include <cstdio>
+#include <exception>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+    CLI::App app{"airmass: a planet's atmosphere around a fast, well-tested Chapman function"};
+    app.require_subcommand(1);
+    airmass::cli::add_chapman_command(app);
+    airmass::cli::add_report_command(app);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "airmass: %s\n", e.what());
+        return 2;
+    }
+    return 0;
+}

@@ -1,0 +1,154 @@
+// Dispatch over the Chapman methods, the derived forms (plain, log, rescaled) and
+// the batch loops. One template serves float and double.
+#include "airmass/chapman.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "chapman_airmass.hpp"
+#include "chapman_internal.hpp"
+#include "chapman_published.hpp"
+
+namespace airmass {
+
+namespace {
+
+constexpr std::array<ChapmanMethodInfo, 8> kMethods{{
+    {ChapmanMethod::exact, "exact", "tanh-sinh quadrature of the defining integral + exact reflection identity"},
+    {ChapmanMethod::airmass, "airmass", "ours: rational base x bicubic correction table (w, v), identity below horizon"},
+    {ChapmanMethod::schuler2012, "schuler2012", "Schuler 2012 GPU Pro 3: c/((c-1)cos+1), c = 1.2533 sqrt(x)"},
+    {ChapmanMethod::schuler2012_full, "schuler2012-full", "Schuler 2012 rational form with full Ch_par = (1/2x+1) sqrt(pi x/2)"},
+    {ChapmanMethod::schuler2012_rigged, "schuler2012-rigged", "Schuler 2012 Listing 2.1 chapman_h: c = sqrt(x), 50%-heights, exp2"},
+    {ChapmanMethod::schuler2012_rigged_exp2pp, "schuler2012-rigged-exp2pp", "Listing 2.1 chapman_h with the Listing 2.3 exp2pp"},
+    {ChapmanMethod::kocifaj1996, "kocifaj1996", "Kocifaj 1996 closed form with erfcx (libcerf)"},
+    {ChapmanMethod::golubev2019, "golubev2019", "Golubev 2019 Eq. 45: erfcx by a rational approximation"},
+}};
+
+template <class T>
+ScaledChapman<T> scaled_one(ChapmanMethod method, T x, ZenithAngle<T> chi) {
+    using namespace detail;
+    switch (method) {
+        case ChapmanMethod::exact: {
+            const auto r = chapman_exact_scaled(static_cast<double>(x),
+                                                {static_cast<double>(chi.cos_chi), static_cast<double>(chi.sin_chi)});
+            return {static_cast<T>(r.mantissa), static_cast<T>(r.log_scale)};
+        }
+        case ChapmanMethod::airmass: return airmass_table().scaled(x, chi);
+        case ChapmanMethod::schuler2012: return chapman_schuler2012(x, chi);
+        case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, chi);
+        case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, chi);
+        case ChapmanMethod::schuler2012_rigged_exp2pp: return chapman_schuler2012_rigged<T, true>(x, chi);
+        case ChapmanMethod::kocifaj1996: return chapman_kocifaj1996(x, chi);
+        case ChapmanMethod::golubev2019: return chapman_golubev2019(x, chi);
+    }
+    throw std::invalid_argument("chapman: unknown method");
+}
+
+// The batch loop is written once; `method` is a compile-time constant inside so each
+// method's loop body is inlined and free of the dispatch switch.
+// `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
+template <class T, ChapmanMethod M, class X, class Out>
+void batch_loop(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
+    const size_t n = c.size();
+    for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), ZenithAngle<T>{c[i], s[i]}));
+}
+
+template <class T, class X, class Out>
+void batch_dispatch(ChapmanMethod method, size_t n, X x, std::span<const T> c, std::span<const T> s, Out out) {
+    if (c.size() != n || s.size() != n)
+        throw std::invalid_argument("chapman batch: x, cos_chi and sin_chi must have the same length");
+    switch (method) {
+        case ChapmanMethod::exact: return batch_loop<T, ChapmanMethod::exact>(x, c, s, out);
+        case ChapmanMethod::airmass: return batch_loop<T, ChapmanMethod::airmass>(x, c, s, out);
+        case ChapmanMethod::schuler2012: return batch_loop<T, ChapmanMethod::schuler2012>(x, c, s, out);
+        case ChapmanMethod::schuler2012_full: return batch_loop<T, ChapmanMethod::schuler2012_full>(x, c, s, out);
+        case ChapmanMethod::schuler2012_rigged: return batch_loop<T, ChapmanMethod::schuler2012_rigged>(x, c, s, out);
+        case ChapmanMethod::schuler2012_rigged_exp2pp:
+            return batch_loop<T, ChapmanMethod::schuler2012_rigged_exp2pp>(x, c, s, out);
+        case ChapmanMethod::kocifaj1996: return batch_loop<T, ChapmanMethod::kocifaj1996>(x, c, s, out);
+        case ChapmanMethod::golubev2019: return batch_loop<T, ChapmanMethod::golubev2019>(x, c, s, out);
+    }
+    throw std::invalid_argument("chapman: unknown method");
+}
+
+}  // namespace
+
+std::span<const ChapmanMethodInfo> chapman_methods() { return kMethods; }
+
+std::optional<ChapmanMethod> chapman_method_from_name(std::string_view name) {
+    for (const auto& m : kMethods)
+        if (m.name == name) return m.method;
+    return std::nullopt;
+}
+
+std::string_view chapman_method_name(ChapmanMethod method) {
+    for (const auto& m : kMethods)
+        if (m.method == method) return m.name;
+    return "unknown";
+}
+
+template <class T>
+ScaledChapman<T> chapman_scaled(ChapmanMethod method, T x, ZenithAngle<T> chi) {
+    return scaled_one<T>(method, x, chi);
+}
+
+template <class T>
+T chapman(ChapmanMethod method, T x, ZenithAngle<T> chi) {
+    const auto r = scaled_one<T>(method, x, chi);
+    return r.log_scale == T(0) ? r.mantissa : r.mantissa * std::exp(r.log_scale);
+}
+
+template <class T>
+T log_chapman(ChapmanMethod method, T x, ZenithAngle<T> chi) {
+    const auto r = scaled_one<T>(method, x, chi);
+    return std::log(r.mantissa) + r.log_scale;
+}
+
+template <class T>
+T chapman_rescaled(ChapmanMethod method, T X, T h, ZenithAngle<T> chi) {
+    const auto r = scaled_one<T>(method, X + h, chi);
+    return r.mantissa * std::exp(r.log_scale - h);
+}
+
+template <class T>
+void chapman_scaled_batch(ChapmanMethod method, std::span<const T> x, std::span<const T> cos_chi,
+                          std::span<const T> sin_chi, std::span<T> mantissa, std::span<T> log_scale) {
+    if (mantissa.size() != x.size() || log_scale.size() != x.size())
+        throw std::invalid_argument("chapman batch: output spans must have the length of x");
+    batch_dispatch<T>(method, x.size(), [x](size_t i) { return x[i]; }, cos_chi, sin_chi, [&](size_t i, ScaledChapman<T> r) {
+        mantissa[i] = r.mantissa;
+        log_scale[i] = r.log_scale;
+    });
+}
+
+template <class T>
+void chapman_rescaled_batch(ChapmanMethod method, T X, std::span<const T> h, std::span<const T> cos_chi,
+                            std::span<const T> sin_chi, std::span<T> out) {
+    if (out.size() != h.size()) throw std::invalid_argument("chapman batch: output span must have the length of h");
+    batch_dispatch<T>(method, h.size(), [X, h](size_t i) { return X + h[i]; }, cos_chi, sin_chi,
+                      [&](size_t i, ScaledChapman<T> r) { out[i] = r.mantissa * std::exp(r.log_scale - h[i]); });
+}
+
+template <class T>
+T exp2pp(T x) {
+    return exp2pp_impl(x);
+}
+
+#define AIRMASS_INSTANTIATE(T)                                                                                   \
+    template ScaledChapman<T> chapman_scaled<T>(ChapmanMethod, T, ZenithAngle<T>);                               \
+    template T chapman<T>(ChapmanMethod, T, ZenithAngle<T>);                                                     \
+    template T log_chapman<T>(ChapmanMethod, T, ZenithAngle<T>);                                                 \
+    template T chapman_rescaled<T>(ChapmanMethod, T, T, ZenithAngle<T>);                                         \
+    template void chapman_scaled_batch<T>(ChapmanMethod, std::span<const T>, std::span<const T>,                 \
+                                          std::span<const T>, std::span<T>, std::span<T>);                       \
+    template void chapman_rescaled_batch<T>(ChapmanMethod, T, std::span<const T>, std::span<const T>,            \
+                                            std::span<const T>, std::span<T>);                                   \
+    template T exp2pp<T>(T);
+AIRMASS_INSTANTIATE(float)
+AIRMASS_INSTANTIATE(double)
+#undef AIRMASS_INSTANTIATE
+
+}  // namespace airmass

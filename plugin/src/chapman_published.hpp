@@ -1,0 +1,119 @@
+// The published approximations of the Chapman function, each exactly as its author
+// wrote it, extended below the horizon (chi > 90°) the way that author did: with the
+// reflection identity and the method's own horizontal value (chapman_internal.hpp).
+// Where a published form breaks (a pole, a negative value, 0·inf) it is left broken;
+// tests/test_chapman_extremes.cpp pins down exactly where, and docs/chapman.md says so.
+#pragma once
+
+#include <cerf.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "chapman_internal.hpp"
+
+namespace airmass {
+
+// GPU Pro 3 Listing 2.3: rational exp2 on [−1/2, 1/2] with range reduction, ~12 bits.
+template <class T>
+inline T exp2pp_impl(T x) {
+    const T c0 = T(5.79525), c1 = T(12.52461), c2 = T(-2.88611);
+    const T e = std::round(x);
+    const T t = x - e;
+    const T m = (t * t + c0 * t + c1) / (c2 * t + c1);
+    return std::ldexp(m, static_cast<int>(e));
+}
+
+namespace detail {
+
+// Schüler 2012 §2.4: Ch'(c, chi) = c / ((c − 1) cos chi + 1) for chi ≤ 90°.
+template <class T>
+inline T schuler_rational(T c, T mu) {
+    return c / ((c - T(1)) * mu + T(1));
+}
+
+// Schüler 2012 §2.4.1: Ch∥(x) ≈ 1.2533 sqrt(x) ("with less than 5% error for x > 10").
+template <class T>
+inline T schuler_horizontal(T x) {
+    return T(1.2533) * std::sqrt(x);
+}
+
+// Schüler 2012 §2.4.1 before simplification (= Kocifaj at 90°): Ch∥(x) = (1/2x + 1) sqrt(pi x / 2).
+template <class T>
+inline T kocifaj_horizontal(T x) {
+    return (T(1) / (T(2) * x) + T(1)) * std::sqrt(std::numbers::pi_v<T> * x / T(2));
+}
+
+template <class T>
+inline ScaledChapman<T> chapman_schuler2012(T x, ZenithAngle<T> chi) {
+    // Blog "as originally published": chi > 90°: c/((c−1)cos chi − 1) + 2 c e^(x − x sin chi) sqrt(sin chi),
+    // which is the reflection identity with Ch∥(x0) = 1.2533 sqrt(x0) = c sqrt(sin chi).
+    return reflect_below_horizon<T>(
+        x, chi, [](T x_, T mu) { return schuler_rational(schuler_horizontal(x_), mu); },
+        [](T x0) { return schuler_horizontal(x0); });
+}
+
+template <class T>
+inline ScaledChapman<T> chapman_schuler2012_full(T x, ZenithAngle<T> chi) {
+    return reflect_below_horizon<T>(
+        x, chi, [](T x_, T mu) { return schuler_rational(kocifaj_horizontal(x_), mu); },
+        [](T x0) { return kocifaj_horizontal(x0); });
+}
+
+// GPU Pro 3 Listing 2.1 `chapman_h`, "rigged" for sums of segments (§2.5.2): c = sqrt(x),
+// Ch' = c / (c cos chi + 1), in units of the 50%-height H50 = H ln 2 and with exp2.
+// With X = x (so h = 0 and exp2(−h) = 1) the listing's below-horizon branch
+//     2 c0 exp2(X − x0) − c / (1 − c cos chi) exp2(−h)
+// is, in scaled form, mantissa = 2 c0 − c/(1 − c cos chi) · exp2(−d50), log_scale = d.
+template <class T, bool UseExp2pp>
+inline ScaledChapman<T> chapman_schuler2012_rigged(T x, ZenithAngle<T> chi) {
+    const T inv_ln2 = T(1.4426950408889634);
+    const T x50 = x * inv_ln2;
+    const T c = std::sqrt(x50);
+    const T mu = chi.cos_chi;
+    if (mu >= T(0)) return {c / (c * mu + T(1)), T(0)};
+    const T d = x * mu * mu / (T(1) + chi.sin_chi);
+    const T x0_50 = x50 * chi.sin_chi;
+    const T c0 = std::sqrt(x0_50);
+    const T decay = UseExp2pp ? exp2pp_impl(-d * inv_ln2) : std::exp2(-d * inv_ln2);
+    return {T(2) * c0 - c / (T(1) - c * mu) * decay, d};
+}
+
+// Kocifaj 1996 as distilled by Schüler (§2.3) and Golubev (Eq. 40):
+//   Ch = ½ [cos chi + erfcx(sqrt(x cos²chi / 2)) (1/x + 2 − cos²chi) sqrt(pi x / 2)],
+// with erfcx from libcerf (double precision; float evaluates it in double).
+template <class T>
+inline T kocifaj_upper(T x, T mu) {
+    const T e = static_cast<T>(erfcx(static_cast<double>(std::sqrt(x * mu * mu / T(2)))));
+    return T(0.5) * (mu + e * (T(1) / x + T(2) - mu * mu) * std::sqrt(std::numbers::pi_v<T> * x / T(2)));
+}
+
+template <class T>
+inline ScaledChapman<T> chapman_kocifaj1996(T x, ZenithAngle<T> chi) {
+    return reflect_below_horizon<T>(x, chi, [](T x_, T mu) { return kocifaj_upper(x_, mu); },
+                                    [](T x0) { return kocifaj_horizontal(x0); });
+}
+
+// Golubev 2019, code listing for Eq. 45 (ChapmanUpperApprox / ChapmanHorizontal /
+// RescaledChapmanFunction); Eq. 45's "a z" is the listing's "c z".
+template <class T>
+inline T golubev_upper(T z, T c) {
+    const T n = T(0.761643) * ((T(1) + T(2) * z) - (c * c * z));
+    const T d = c * z + std::sqrt(z * (T(1.47721) + T(0.273828) * (c * c * z)));
+    return T(0.5) * c + n / d;
+}
+template <class T>
+inline T golubev_horizontal(T z) {
+    const T r = T(1) / std::sqrt(z);
+    const T s = z * r;
+    return T(0.626657) * (r + T(2) * s);
+}
+
+template <class T>
+inline ScaledChapman<T> chapman_golubev2019(T x, ZenithAngle<T> chi) {
+    return reflect_below_horizon<T>(x, chi, [](T z, T mu) { return golubev_upper(z, mu); },
+                                    [](T z0) { return golubev_horizontal(z0); });
+}
+
+}  // namespace detail
+}  // namespace airmass
