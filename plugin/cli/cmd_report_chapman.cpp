@@ -286,10 +286,8 @@ void run_report(const std::filesystem::path& out_dir, int per_region) {
 
 }  // namespace
 
-void add_report_command(CLI::App& app) {
-    auto* report = app.add_subcommand("report", "Measured speed-vs-accuracy trade tables");
-    report->require_subcommand(1);
-    auto* chapman = report->add_subcommand("chapman", "Chapman methods: error per region and ns per evaluation");
+void add_report_chapman(CLI::App& report) {
+    auto* chapman = report.add_subcommand("chapman", "Chapman methods: error per region and ns per evaluation");
     auto out = std::make_shared<std::string>("out/chapman");
     auto per_region = std::make_shared<int>(1500);
     chapman->add_option("--out", *out, "Output directory");

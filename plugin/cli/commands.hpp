@@ -1,6 +1,6 @@
 // Sub-command registration for the `airmass` CLI. Each sub-command lives in its own
-// cmd_*.cpp and adds itself to the app; errors are thrown as CliError and printed
-// by main() as "airmass <cmd>: <message>" with exit code 2.
+// cmd_*.cpp and adds itself to the app (or to the `report` parent); errors are thrown
+// as CliError (or SceneError) and printed by main() as "airmass: <message>", exit 2.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -13,7 +13,14 @@ struct CliError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-void add_chapman_command(CLI::App& app);
-void add_report_command(CLI::App& app);
+void add_chapman_command(CLI::App& app);  // cmd_chapman.cpp
+void add_eval_command(CLI::App& app);     // cmd_eval.cpp
+void add_sky_command(CLI::App& app);      // cmd_sky.cpp
+void add_vdb_command(CLI::App& app);      // cmd_vdb.cpp
+
+// `airmass report <topic>`: measured speed-vs-accuracy trade tables.
+void add_report_chapman(CLI::App& report);  // cmd_report_chapman.cpp
+void add_report_sky(CLI::App& report);      // cmd_report_sky.cpp
+void add_report_vdb(CLI::App& report);      // cmd_report_vdb.cpp
 
 }  // namespace airmass::cli

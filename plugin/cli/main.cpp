@@ -8,7 +8,14 @@ int main(int argc, char** argv) {
     CLI::App app{"airmass: a planet's atmosphere around a fast, well-tested Chapman function"};
     app.require_subcommand(1);
     airmass::cli::add_chapman_command(app);
-    airmass::cli::add_report_command(app);
+    airmass::cli::add_eval_command(app);
+    airmass::cli::add_sky_command(app);
+    airmass::cli::add_vdb_command(app);
+    auto* report = app.add_subcommand("report", "Measured speed-vs-accuracy trade tables and plots' data");
+    report->require_subcommand(1);
+    airmass::cli::add_report_chapman(*report);
+    airmass::cli::add_report_sky(*report);
+    airmass::cli::add_report_vdb(*report);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -31,6 +31,9 @@ struct DensityProfile {
     std::vector<std::pair<double, double>> knots;
     // constant: rho = value between bottom_m and top_m (top_m = 0: up to the atmosphere top)
     double value = 1.0;
+
+    // Relative density at altitude h (metres above the surface); ≥ 0, finite.
+    double at(double altitude_m) const;
 };
 
 // A coefficient as a function of wavelength, in m⁻¹ at density 1.
