@@ -27,22 +27,23 @@ constexpr std::array<ChapmanMethodInfo, 8> kMethods{{
     {ChapmanMethod::golubev2019, "golubev2019", "Golubev 2019 Eq. 45: erfcx by a rational approximation"},
 }};
 
+// Cosine and sine travel as separate scalars: a two-double struct argument was packed
+// through the stack and cost a store-forwarding stall on every call.
 template <class T>
-ScaledChapman<T> scaled_one(ChapmanMethod method, T x, ZenithAngle<T> chi) {
+ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
     using namespace detail;
     switch (method) {
         case ChapmanMethod::exact: {
-            const auto r = chapman_exact_scaled(static_cast<double>(x),
-                                                {static_cast<double>(chi.cos_chi), static_cast<double>(chi.sin_chi)});
+            const auto r = chapman_exact_scaled(double(x), double(mu), double(s));
             return {static_cast<T>(r.mantissa), static_cast<T>(r.log_scale)};
         }
-        case ChapmanMethod::airmass: return airmass_table().scaled(x, chi);
-        case ChapmanMethod::schuler2012: return chapman_schuler2012(x, chi);
-        case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, chi);
-        case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, chi);
-        case ChapmanMethod::schuler2012_rigged_exp2pp: return chapman_schuler2012_rigged<T, true>(x, chi);
-        case ChapmanMethod::kocifaj1996: return chapman_kocifaj1996(x, chi);
-        case ChapmanMethod::golubev2019: return chapman_golubev2019(x, chi);
+        case ChapmanMethod::airmass: return airmass_table().scaled(x, mu, s);
+        case ChapmanMethod::schuler2012: return chapman_schuler2012(x, mu, s);
+        case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, mu, s);
+        case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, mu, s);
+        case ChapmanMethod::schuler2012_rigged_exp2pp: return chapman_schuler2012_rigged<T, true>(x, mu, s);
+        case ChapmanMethod::kocifaj1996: return chapman_kocifaj1996(x, mu, s);
+        case ChapmanMethod::golubev2019: return chapman_golubev2019(x, mu, s);
     }
     throw std::invalid_argument("chapman: unknown method");
 }
@@ -53,7 +54,7 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, ZenithAngle<T> chi) {
 template <class T, ChapmanMethod M, class X, class Out>
 void batch_loop(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
     const size_t n = c.size();
-    for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), ZenithAngle<T>{c[i], s[i]}));
+    for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), c[i], s[i]));
 }
 
 template <class T, class X, class Out>
@@ -92,24 +93,24 @@ std::string_view chapman_method_name(ChapmanMethod method) {
 
 template <class T>
 ScaledChapman<T> chapman_scaled(ChapmanMethod method, T x, ZenithAngle<T> chi) {
-    return scaled_one<T>(method, x, chi);
+    return scaled_one<T>(method, x, chi.cos_chi, chi.sin_chi);
 }
 
 template <class T>
 T chapman(ChapmanMethod method, T x, ZenithAngle<T> chi) {
-    const auto r = scaled_one<T>(method, x, chi);
+    const auto r = scaled_one<T>(method, x, chi.cos_chi, chi.sin_chi);
     return r.log_scale == T(0) ? r.mantissa : r.mantissa * std::exp(r.log_scale);
 }
 
 template <class T>
 T log_chapman(ChapmanMethod method, T x, ZenithAngle<T> chi) {
-    const auto r = scaled_one<T>(method, x, chi);
+    const auto r = scaled_one<T>(method, x, chi.cos_chi, chi.sin_chi);
     return std::log(r.mantissa) + r.log_scale;
 }
 
 template <class T>
 T chapman_rescaled(ChapmanMethod method, T X, T h, ZenithAngle<T> chi) {
-    const auto r = scaled_one<T>(method, X + h, chi);
+    const auto r = scaled_one<T>(method, X + h, chi.cos_chi, chi.sin_chi);
     return r.mantissa * std::exp(r.log_scale - h);
 }
 

@@ -93,9 +93,9 @@ struct AirmassTable {
     }
 
     template <class T>
-    ScaledChapman<T> scaled(T x, ZenithAngle<T> chi) const {
+    ScaledChapman<T> scaled(T x, T mu, T sin_chi) const {
         return reflect_below_horizon<T>(
-            x, chi, [this](T x_, T mu) { return upper(x_, mu); }, [this](T x0) { return horizontal(x0); });
+            x, mu, sin_chi, [this](T x_, T m) { return upper(x_, m); }, [this](T x0) { return horizontal(x0); });
     }
 };
 

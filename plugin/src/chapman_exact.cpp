@@ -46,9 +46,9 @@ double chapman_upper_exact(double x, double mu) {
     return integrate(integrand, 0.0, t_k) + integrate(integrand, t_k, t_end);
 }
 
-ScaledChapman<double> chapman_exact_scaled(double x, ZenithAngle<double> chi) {
+ScaledChapman<double> chapman_exact_scaled(double x, double mu, double sin_chi) {
     return reflect_below_horizon<double>(
-        x, chi, [](double x_, double mu) { return chapman_upper_exact(x_, mu); },
+        x, mu, sin_chi, [](double x_, double m) { return chapman_upper_exact(x_, m); },
         [](double x0) { return chapman_upper_exact(x0, 0.0); });
 }
 

@@ -12,7 +12,7 @@ namespace airmass::detail {
 // Ch(x, chi) for chi ≤ 90° (mu = cos chi in [0, 1]) by adaptive Gauss–Kronrod
 // quadrature of the substituted integral (see chapman_exact.cpp); x ≥ 0.
 double chapman_upper_exact(double x, double mu);
-ScaledChapman<double> chapman_exact_scaled(double x, ZenithAngle<double> chi);
+ScaledChapman<double> chapman_exact_scaled(double x, double mu, double sin_chi);
 
 // ---- the reflection identity (Schüler 2012 §2.4.2, Golubev Eq. 42) -----------------
 // Below the horizon, Ch(x, chi) = 2 exp(x − x0) Ch∥(x0) − Ch(x, 180° − chi), x0 = x sin chi.
@@ -20,11 +20,10 @@ ScaledChapman<double> chapman_exact_scaled(double x, ZenithAngle<double> chi);
 //     mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) exp(−d),  log_scale = d.
 // `upper(x, mu)` and `horizontal(x0)` are the method's own pieces, as its author used them.
 template <class T, class Upper, class Horizontal>
-inline ScaledChapman<T> reflect_below_horizon(T x, ZenithAngle<T> chi, Upper upper, Horizontal horizontal) {
-    const T mu = chi.cos_chi;
+inline ScaledChapman<T> reflect_below_horizon(T x, T mu, T sin_chi, Upper upper, Horizontal horizontal) {
     if (mu >= T(0)) return {upper(x, mu), T(0)};
-    const T d = x * mu * mu / (T(1) + chi.sin_chi);
-    const T x0 = x * chi.sin_chi;
+    const T d = x * mu * mu / (T(1) + sin_chi);
+    const T x0 = x * sin_chi;
     return {T(2) * horizontal(x0) - upper(x, -mu) * std::exp(-d), d};
 }
 

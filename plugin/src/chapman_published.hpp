@@ -45,18 +45,18 @@ inline T kocifaj_horizontal(T x) {
 }
 
 template <class T>
-inline ScaledChapman<T> chapman_schuler2012(T x, ZenithAngle<T> chi) {
+inline ScaledChapman<T> chapman_schuler2012(T x, T mu, T sin_chi) {
     // Blog "as originally published": chi > 90°: c/((c−1)cos chi − 1) + 2 c e^(x − x sin chi) sqrt(sin chi),
     // which is the reflection identity with Ch∥(x0) = 1.2533 sqrt(x0) = c sqrt(sin chi).
     return reflect_below_horizon<T>(
-        x, chi, [](T x_, T mu) { return schuler_rational(schuler_horizontal(x_), mu); },
+        x, mu, sin_chi, [](T x_, T m) { return schuler_rational(schuler_horizontal(x_), m); },
         [](T x0) { return schuler_horizontal(x0); });
 }
 
 template <class T>
-inline ScaledChapman<T> chapman_schuler2012_full(T x, ZenithAngle<T> chi) {
+inline ScaledChapman<T> chapman_schuler2012_full(T x, T mu, T sin_chi) {
     return reflect_below_horizon<T>(
-        x, chi, [](T x_, T mu) { return schuler_rational(kocifaj_horizontal(x_), mu); },
+        x, mu, sin_chi, [](T x_, T m) { return schuler_rational(kocifaj_horizontal(x_), m); },
         [](T x0) { return kocifaj_horizontal(x0); });
 }
 
@@ -66,14 +66,13 @@ inline ScaledChapman<T> chapman_schuler2012_full(T x, ZenithAngle<T> chi) {
 //     2 c0 exp2(X − x0) − c / (1 − c cos chi) exp2(−h)
 // is, in scaled form, mantissa = 2 c0 − c/(1 − c cos chi) · exp2(−d50), log_scale = d.
 template <class T, bool UseExp2pp>
-inline ScaledChapman<T> chapman_schuler2012_rigged(T x, ZenithAngle<T> chi) {
+inline ScaledChapman<T> chapman_schuler2012_rigged(T x, T mu, T sin_chi) {
     const T inv_ln2 = T(1.4426950408889634);
     const T x50 = x * inv_ln2;
     const T c = std::sqrt(x50);
-    const T mu = chi.cos_chi;
     if (mu >= T(0)) return {c / (c * mu + T(1)), T(0)};
-    const T d = x * mu * mu / (T(1) + chi.sin_chi);
-    const T x0_50 = x50 * chi.sin_chi;
+    const T d = x * mu * mu / (T(1) + sin_chi);
+    const T x0_50 = x50 * sin_chi;
     const T c0 = std::sqrt(x0_50);
     const T decay = UseExp2pp ? exp2pp_impl(-d * inv_ln2) : std::exp2(-d * inv_ln2);
     return {T(2) * c0 - c / (T(1) - c * mu) * decay, d};
@@ -89,8 +88,8 @@ inline T kocifaj_upper(T x, T mu) {
 }
 
 template <class T>
-inline ScaledChapman<T> chapman_kocifaj1996(T x, ZenithAngle<T> chi) {
-    return reflect_below_horizon<T>(x, chi, [](T x_, T mu) { return kocifaj_upper(x_, mu); },
+inline ScaledChapman<T> chapman_kocifaj1996(T x, T mu, T sin_chi) {
+    return reflect_below_horizon<T>(x, mu, sin_chi, [](T x_, T m) { return kocifaj_upper(x_, m); },
                                     [](T x0) { return kocifaj_horizontal(x0); });
 }
 
@@ -110,8 +109,8 @@ inline T golubev_horizontal(T z) {
 }
 
 template <class T>
-inline ScaledChapman<T> chapman_golubev2019(T x, ZenithAngle<T> chi) {
-    return reflect_below_horizon<T>(x, chi, [](T z, T mu) { return golubev_upper(z, mu); },
+inline ScaledChapman<T> chapman_golubev2019(T x, T mu, T sin_chi) {
+    return reflect_below_horizon<T>(x, mu, sin_chi, [](T z, T m) { return golubev_upper(z, m); },
                                     [](T z0) { return golubev_horizontal(z0); });
 }
 

@@ -12,6 +12,7 @@ namespace airmass {
 template <class T>
 ZenithAngle<T> ZenithAngle<T>::from_degrees(double chi_deg) {
     constexpr double deg = std::numbers::pi / 180.0;
+    chi_deg = std::abs(chi_deg);  // Ch is even in chi: make that exact, not merely close
     double c, s;
     if (chi_deg <= 45.0) {
         c = std::cos(chi_deg * deg);
