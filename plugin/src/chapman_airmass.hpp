@@ -5,8 +5,9 @@
 // horizontal value that is right at both ends (chapman_internal.hpp), and R = Ch / B,
 // a smooth function bounded in [~0.9, ~1.2], is read from a table in the coordinates
 //     w = 1 / (1 + sqrt x),   v = mu (1 + Y) / (1 + mu Y),   Y = sqrt(x / 2),
-// with tensor-product cubic Lagrange interpolation (4th order). The table is made at
-// build time from the exact quadrature by plugin/tools/gen_chapman_table.cpp.
+// with tensor-product cubic Lagrange interpolation (4th order), stored per cell as
+// bicubic polynomial coefficients. The table is made at build time from the exact
+// quadrature by plugin/tools/gen_chapman_table.cpp.
 // Below the horizon the reflection identity is exact; Ch∥(x0) is the v = 0 column.
 #pragma once
 
@@ -27,45 +28,63 @@ inline void lagrange4(T t, T w[4]) {
     w[3] = tp1 * t * tm1 * T(1.0 / 6.0);
 }
 
-// Stencil start index and local coordinate for u ∈ [0, 1] on n uniform nodes.
-template <class T>
-inline int stencil(T u, int n, T& t) {
-    const T s = u * T(n - 1);
-    const int i = std::clamp(static_cast<int>(s), 1, n - 3);
-    t = s - T(i);
-    return i - 1;
-}
+// Start of the 4-node stencil for cell i of n nodes (one-sided at the edges).
+inline int stencil_start(int cell, int n) { return std::clamp(cell, 1, n - 3) - 1; }
 
-// A table of R(w, v) (rows w, columns v) and its evaluation.
-struct AirmassTable {
-    const double* values;
+// The node values R(w_i, v_j) and their tensor-product cubic Lagrange interpolant.
+// Used by the generator, which turns it into per-cell polynomials (AirmassTable).
+struct AirmassNodes {
+    const double* values;  // rows w, columns v
     int n_w;
     int n_v;
 
+    double interpolate(double w, double v) const {
+        const double sw = w * (n_w - 1), sv = v * (n_v - 1);
+        const int iw = stencil_start(std::min(int(sw), n_w - 2), n_w);
+        const int iv = stencil_start(std::min(int(sv), n_v - 2), n_v);
+        double ww[4], wv[4];
+        lagrange4(sw - (iw + 1), ww);
+        lagrange4(sv - (iv + 1), wv);
+        double sum = 0;
+        for (int a = 0; a < 4; ++a)
+            for (int b = 0; b < 4; ++b) sum += ww[a] * wv[b] * values[(iw + a) * n_v + iv + b];
+        return sum;
+    }
+};
+
+// The same interpolant stored per cell as a bicubic polynomial in the cell's local
+// coordinates (t, u) ∈ [0, 1]²: 16 coefficients c[a][b] of t^a u^b, contiguous, so an
+// evaluation is one 128-byte read and 15 FMAs (Horner) with no weights to compute.
+struct AirmassTable {
+    const double* coefficients;  // cell (i, j) at (i * (n_v − 1) + j) * 16
+    int n_w;                     // nodes along w (cells: n_w − 1)
+    int n_v;                     // nodes along v
+
+    template <class T>
+    static int cell(T u, int n, T& local) {
+        const T s = u * T(n - 1);
+        const int i = std::min(static_cast<int>(s), n - 2);
+        local = s - T(i);
+        return i;
+    }
+
     template <class T>
     T interpolate(T w, T v) const {
-        T tw, tv, ww[4], wv[4];
-        const int iw = stencil(w, n_w, tw);
-        const int iv = stencil(v, n_v, tv);
-        lagrange4(tw, ww);
-        lagrange4(tv, wv);
-        T sum = T(0);
-        for (int a = 0; a < 4; ++a) {
-            const double* row = values + (iw + a) * n_v + iv;
-            const T r = wv[0] * T(row[0]) + wv[1] * T(row[1]) + wv[2] * T(row[2]) + wv[3] * T(row[3]);
-            sum += ww[a] * r;
-        }
-        return sum;
+        T t, u;
+        const int i = cell(w, n_w, t), j = cell(v, n_v, u);
+        const double* c = coefficients + (static_cast<size_t>(i) * (n_v - 1) + j) * 16;
+        T row[4];
+        for (int a = 0; a < 4; ++a)
+            row[a] = ((T(c[4 * a + 3]) * u + T(c[4 * a + 2])) * u + T(c[4 * a + 1])) * u + T(c[4 * a]);
+        return ((row[3] * t + row[2]) * t + row[1]) * t + row[0];
     }
 
     template <class T>
     T interpolate_column0(T w) const {
-        T tw, ww[4];
-        const int iw = stencil(w, n_w, tw);
-        lagrange4(tw, ww);
-        T sum = T(0);
-        for (int a = 0; a < 4; ++a) sum += ww[a] * T(values[(iw + a) * n_v]);
-        return sum;
+        T t;
+        const int i = cell(w, n_w, t);
+        const double* c = coefficients + static_cast<size_t>(i) * (n_v - 1) * 16;
+        return ((T(c[12]) * t + T(c[8])) * t + T(c[4])) * t + T(c[0]);
     }
 
     // Ch(x, chi) for mu = cos chi ∈ [0, 1]. The three quotients w, v and B share one
