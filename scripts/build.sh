@@ -6,6 +6,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${AIRMASS_BUILD_DIR:-$root/build}"
 werror="${AIRMASS_WERROR:-$([ -n "${CI:-}" ] && echo ON || echo OFF)}"
 jobs="${AIRMASS_JOBS:-$(nproc)}"
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DAIRMASS_WERROR="$werror" >"$build.configure.log" 2>&1 || {
-  cat "$build.configure.log" >&2; exit 1; }
+mkdir -p "$build"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DAIRMASS_WERROR="$werror" >"$build/configure.log" 2>&1 || {
+  cat "$build/configure.log" >&2; exit 1; }
 cmake --build "$build" -j "$jobs"
