@@ -30,4 +30,13 @@ void validate(const Scene& scene);
 // A compact JSON description of the scene (for EXR/VDB metadata).
 std::string scene_to_json(const Scene& scene);
 
+// The constituents that can affect light: those whose scattering or absorption is non-zero at
+// some wavelength. A constituent with both zero (allowed in a file) is dropped here, so a scene
+// pays nothing for it.
+std::vector<Constituent> active_constituents(const Scene& scene);
+
+// Vertical column of a density profile, ∫₀^thickness ρ(h) dh in metres (exact for every profile
+// kind). Used by the "angstrom" law (β / column) and by ozone columns in Dobson units.
+double vertical_column_m(const DensityProfile& profile, double thickness_m);
+
 }  // namespace airmass

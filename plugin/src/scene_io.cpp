@@ -1,0 +1,1195 @@
+// Reading, validating and writing scene descriptions: the TOML format of docs/scene.md,
+// presets embedded from examples/*.toml, validation with messages that name the field, its
+// value and the allowed range, and a compact JSON form for metadata.
+//
+// Reading happens in three steps:
+//   1. parse the TOML text (toml++) and resolve `preset = "..."`: the named preset's table is
+//      the base and the file's tables are merged over it (rules in merge_table);
+//   2. build the Scene, converting the file's units (km, Dobson units, AU, ...) to the Scene's
+//      SI ones; every key read is recorded, and any key left over is an error (typos must not
+//      be silently ignored);
+//   3. validate() the Scene; its messages name TOML paths, which are mapped back to the source
+//      line where the field was written.
+#include "airmass/scene_io.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "airmass/color.hpp"
+
+namespace airmass {
+
+namespace detail {
+// Generated at configure time from examples/*.toml (plugin/CMakeLists.txt, "Scene presets").
+struct EmbeddedPreset {
+    const char* name;
+    const unsigned char* text;
+    std::size_t size;
+};
+extern const EmbeddedPreset kEmbeddedPresets[];
+extern const std::size_t kEmbeddedPresetCount;
+}  // namespace detail
+
+namespace {
+
+constexpr double kMetresPerKm = 1000.0;
+// Molecules per m² in one Dobson unit (Bruneton's kDobsonUnit; 0.01 mm of gas at STP).
+constexpr double kMoleculesPerM2PerDobson = 2.687e20;
+constexpr double kMinSpectralNm = kCmfFirstNm;  // the CIE table's range: nothing is seen outside
+constexpr double kMaxSpectralNm = kCmfLastNm;
+constexpr std::size_t kMaxWavelengths = 1000;
+constexpr double kMaxRadiusKm = 1e6;
+constexpr double kMaxAngularRadiusDeg = 5.0;
+constexpr double kMaxExponent = 10.0;
+constexpr int kMaxImageSide = 65536;
+
+// ---------------------------------------------------------------------------------------------
+// Formatting
+
+std::string num(double v) {
+    std::ostringstream o;
+    o << std::setprecision(10) << v;
+    return o.str();
+}
+
+std::string in_quotes(std::string_view s) { return "\"" + std::string(s) + "\""; }
+
+std::string join_quoted(const std::vector<std::string>& items) {
+    std::string out;
+    for (const auto& s : items) out += (out.empty() ? "" : ", ") + in_quotes(s);
+    return out;
+}
+
+// "file:line:col: " for a node that came from a file, "" otherwise.
+std::string where(const toml::source_region& src) {
+    if (!src.begin) return src.path ? *src.path + ": " : "";
+    std::string out = src.path ? *src.path : std::string("<toml>");
+    return out + ":" + std::to_string(src.begin.line) + ":" + std::to_string(src.begin.column) + ": ";
+}
+
+// A short rendering of a TOML value for messages.
+std::string describe(const toml::node& n) {
+    if (n.is_table()) return "a table";
+    if (n.is_array()) return "an array";
+    if (n.is_string()) return in_quotes(n.as_string()->get());
+    std::ostringstream o;
+    n.visit([&](const auto& v) { o << v; });
+    return o.str();
+}
+
+// An error whose message already starts with "file:line:col: ".
+struct LocatedError : SceneError {
+    using SceneError::SceneError;
+};
+
+// Field path → where it was written, to point validate()'s messages at the source line.
+using SourceMap = std::map<std::string, toml::source_region, std::less<>>;
+
+// ---------------------------------------------------------------------------------------------
+// Scene validation (field paths and values in the file's units)
+
+[[noreturn]] void bad(const std::string& path, double value, const std::string& requirement) {
+    throw SceneError(path + " = " + num(value) + ": " + requirement);
+}
+
+void require_range(bool ok, const std::string& path, double value, const std::string& requirement) {
+    if (!ok) bad(path, value, requirement);
+}
+
+void require_positive(const std::string& path, double v) {
+    require_range(std::isfinite(v) && v > 0.0, path, v, "must be > 0");
+}
+void require_non_negative(const std::string& path, double v) {
+    require_range(std::isfinite(v) && v >= 0.0, path, v, "must be >= 0");
+}
+void require_finite(const std::string& path, double v) { require_range(std::isfinite(v), path, v, "must be finite"); }
+
+// Wavelength tables: strictly increasing, inside the visible range we can colour, values ≥ 0,
+// and covering every wavelength the spectrum asks for (tables are never extrapolated silently).
+void check_table(const std::string& path, const std::vector<std::pair<double, double>>& table,
+                 const std::string& values_key, double need_lo_nm, double need_hi_nm, bool values_at_most_one = false) {
+    if (table.empty()) throw SceneError(path + ".wavelengths_nm: must have at least one entry");
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        const std::string wl = path + ".wavelengths_nm[" + std::to_string(i) + "]";
+        const double l = table[i].first;
+        require_range(std::isfinite(l) && l > 0.0, wl, l, "must be > 0");
+        if (i > 0)
+            require_range(l > table[i - 1].first, wl, l,
+                          "must be > wavelengths_nm[" + std::to_string(i - 1) + "] (" + num(table[i - 1].first) +
+                              "): wavelengths must increase");
+        const std::string vp = path + "." + values_key + "[" + std::to_string(i) + "]";
+        const double v = table[i].second;
+        if (values_at_most_one)
+            require_range(std::isfinite(v) && v >= 0.0 && v <= 1.0, vp, v, "must be in [0, 1]");
+        else
+            require_non_negative(vp, v);
+    }
+    if (table.front().first > need_lo_nm || table.back().first < need_hi_nm)
+        throw SceneError(path + ".wavelengths_nm = [" + num(table.front().first) + " ... " + num(table.back().first) +
+                         "]: must cover the spectrum's wavelengths [" + num(need_lo_nm) + ", " + num(need_hi_nm) +
+                         "] nm (tables are not extrapolated)");
+}
+
+void validate_planet(const Planet& p) {
+    const double r_km = p.radius_m / kMetresPerKm;
+    require_range(std::isfinite(r_km) && r_km > 0.0 && r_km <= kMaxRadiusKm, "planet.radius_km", r_km,
+                  "must be in (0, " + num(kMaxRadiusKm) + "]");
+    const double top_km = p.atmosphere_top_m / kMetresPerKm;
+    require_range(std::isfinite(top_km) && top_km > r_km, "planet.atmosphere_top_km", top_km,
+                  "must be > planet.radius_km (" + num(r_km) + "): it is the radius of the atmosphere's top");
+    require_range(std::isfinite(top_km) && top_km <= 2.0 * kMaxRadiusKm, "planet.atmosphere_top_km", top_km,
+                  "must be <= " + num(2.0 * kMaxRadiusKm));
+    require_range(std::isfinite(p.ground_albedo) && p.ground_albedo >= 0.0 && p.ground_albedo <= 1.0,
+                  "planet.ground_albedo", p.ground_albedo, "must be in [0, 1]");
+}
+
+void validate_profile(const std::string& path, const DensityProfile& p) {
+    const auto km = [](double m) { return m / kMetresPerKm; };
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential:
+            require_positive(path + ".scale_height_km", km(p.scale_height_m));
+            require_finite(path + ".reference_altitude_km", km(p.reference_altitude_m));
+            return;
+        case DensityProfile::Kind::tent:
+            require_finite(path + ".bottom_km", km(p.bottom_m));
+            require_range(std::isfinite(p.peak_m) && p.peak_m > p.bottom_m, path + ".peak_km", km(p.peak_m),
+                          "must be > " + path + ".bottom_km (" + num(km(p.bottom_m)) + ")");
+            require_range(std::isfinite(p.top_m) && p.top_m > p.peak_m, path + ".top_km", km(p.top_m),
+                          "must be > " + path + ".peak_km (" + num(km(p.peak_m)) + ")");
+            return;
+        case DensityProfile::Kind::piecewise_linear:
+            if (p.knots.size() < 2)
+                throw SceneError(path + ".altitudes_km: must have at least 2 knots (has " +
+                                 std::to_string(p.knots.size()) + ")");
+            for (std::size_t i = 0; i < p.knots.size(); ++i) {
+                const std::string ap = path + ".altitudes_km[" + std::to_string(i) + "]";
+                const double a = km(p.knots[i].first);
+                require_finite(ap, a);
+                if (i > 0)
+                    require_range(p.knots[i].first > p.knots[i - 1].first, ap, a,
+                                  "must be > altitudes_km[" + std::to_string(i - 1) + "] (" +
+                                      num(km(p.knots[i - 1].first)) + "): altitudes must increase");
+                require_non_negative(path + ".densities[" + std::to_string(i) + "]", p.knots[i].second);
+            }
+            return;
+        case DensityProfile::Kind::constant:
+            require_non_negative(path + ".value", p.value);
+            require_finite(path + ".bottom_km", km(p.bottom_m));
+            require_range(
+                std::isfinite(p.top_m) && (p.top_m == 0.0 || p.top_m > p.bottom_m), path + ".top_km", km(p.top_m),
+                "must be 0 (up to the atmosphere top) or > " + path + ".bottom_km (" + num(km(p.bottom_m)) + ")");
+            return;
+    }
+    throw SceneError(path + ".type: unknown profile kind");
+}
+
+void validate_coefficient(const std::string& path, const SpectralCoefficient& c, double need_lo_nm, double need_hi_nm) {
+    switch (c.law) {
+        case SpectralCoefficient::Law::constant: require_non_negative(path + ".value_per_m", c.value_per_m); return;
+        case SpectralCoefficient::Law::power_law:
+            require_non_negative(path + ".value_per_m", c.value_per_m);
+            require_positive(path + ".reference_nm", c.reference_nm);
+            require_range(std::isfinite(c.exponent) && std::abs(c.exponent) <= kMaxExponent, path + ".exponent",
+                          c.exponent, "must be in [-" + num(kMaxExponent) + ", " + num(kMaxExponent) + "]");
+            return;
+        case SpectralCoefficient::Law::table:
+            check_table(path, c.table, "values_per_m", need_lo_nm, need_hi_nm);
+            return;
+    }
+    throw SceneError(path + ".law: unknown law");
+}
+
+void validate_phase(const std::string& path, const PhaseFunction& p) {
+    if (p.kind == PhaseFunction::Kind::cornette_shanks || p.kind == PhaseFunction::Kind::henyey_greenstein)
+        require_range(std::isfinite(p.g) && p.g > -1.0 && p.g < 1.0, path + ".g", p.g, "must be in (-1, 1)");
+}
+
+bool valid_name(const std::string& s) {
+    if (s.empty() || s.size() > 64) return false;
+    return std::all_of(s.begin(), s.end(), [](char ch) {
+        return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_' ||
+               ch == '-' || ch == '.';
+    });
+}
+
+void validate_vec3(const std::string& path, const double (&v)[3], bool nonzero) {
+    for (int i = 0; i < 3; ++i) require_finite(path + "[" + std::to_string(i) + "]", v[i]);
+    if (nonzero && v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0)
+        throw SceneError(path + " = [0, 0, 0]: must be a non-zero vector");
+}
+
+void validate_camera(const Camera& c) {
+    validate_vec3("camera.position_m", c.position_m, false);
+    validate_vec3("camera.direction", c.direction, true);
+    validate_vec3("camera.up", c.up, true);
+    const double* d = c.direction;
+    const double* u = c.up;
+    const double cross[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    const double cn = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
+    const double dn = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const double un = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(cn > 1e-9 * dn * un)) throw SceneError("camera.up: must not be parallel to camera.direction");
+    require_range(std::isfinite(c.fov_deg) && c.fov_deg > 0.0 && c.fov_deg < 180.0, "camera.fov_deg", c.fov_deg,
+                  "must be in (0, 180)");
+    require_positive("camera.max_distance_km", c.max_distance_m / kMetresPerKm);
+    require_range(c.width >= 1 && c.width <= kMaxImageSide, "camera.width", c.width,
+                  "must be in [1, " + std::to_string(kMaxImageSide) + "]");
+    require_range(c.height >= 1 && c.height <= kMaxImageSide, "camera.height", c.height,
+                  "must be in [1, " + std::to_string(kMaxImageSide) + "]");
+}
+
+void validate_basis(const SpectralBasis& b) {
+    if (b.kind == SpectralBasis::Kind::rgb_schuler) {
+        if (!b.wavelengths_nm.empty() && !std::equal(b.wavelengths_nm.begin(), b.wavelengths_nm.end(),
+                                                     kSchulerWavelengthsNm.begin(), kSchulerWavelengthsNm.end()))
+            throw SceneError("spectrum.wavelengths_nm: must be [615, 535, 445] (or empty) for basis = \"rgb-schuler\"");
+        return;
+    }
+    const auto& w = b.wavelengths_nm;
+    if (w.empty()) throw SceneError("spectrum.wavelengths_nm: must have at least one wavelength");
+    if (w.size() > kMaxWavelengths)
+        throw SceneError("spectrum.wavelengths_nm: " + std::to_string(w.size()) + " wavelengths, at most " +
+                         std::to_string(kMaxWavelengths) + " allowed");
+    for (std::size_t i = 0; i < w.size(); ++i) {
+        const std::string path = "spectrum.wavelengths_nm[" + std::to_string(i) + "]";
+        require_range(std::isfinite(w[i]) && w[i] >= kMinSpectralNm && w[i] <= kMaxSpectralNm, path, w[i],
+                      "must be in [" + num(kMinSpectralNm) + ", " + num(kMaxSpectralNm) +
+                          "] nm (the CIE colour matching functions' range)");
+        if (i > 0)
+            require_range(w[i] > w[i - 1], path, w[i],
+                          "must be > wavelengths_nm[" + std::to_string(i - 1) + "] (" + num(w[i - 1]) +
+                              "): wavelengths must increase");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading TOML tables with key bookkeeping
+
+// Reads the keys of one TOML table. Every key looked up is recorded; finish() rejects the rest.
+class TableReader {
+public:
+    TableReader(const toml::table& table, std::string path, SourceMap& sources)
+        : table_(table), path_(std::move(path)), sources_(sources) {
+        sources_[path_] = table.source();
+    }
+
+    const std::string& path() const { return path_; }
+    std::string key_path(std::string_view key) const {
+        return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+    }
+    bool has(std::string_view key) const { return table_.contains(key); }
+
+    const toml::node* take(std::string_view key) {
+        looked_up_.emplace_back(key);
+        const toml::node* n = table_.get(key);
+        if (n) sources_[key_path(key)] = n->source();
+        return n;
+    }
+
+    [[noreturn]] void fail(const toml::node* n, std::string_view key, const std::string& message) const {
+        throw LocatedError(where(n ? n->source() : table_.source()) + key_path(key) + message);
+    }
+    // A required key is absent. A key of the table that is one or two edits away and not read yet
+    // is named too: "radius_kn" is far more likely a typo than a second, unknown field.
+    [[noreturn]] void missing(std::string_view key, const std::string& why = "required") const {
+        std::string hint;
+        for (auto&& [k, node] : table_) {
+            if (std::find(looked_up_.begin(), looked_up_.end(), k.str()) != looked_up_.end()) continue;
+            if (edit_distance(k.str(), key) <= (key.size() <= 3 ? 1u : 2u)) {
+                hint = "; " + in_quotes(k.str()) + (node.source().begin ? " at " + location(node.source()) : "") +
+                       " looks like a misspelling of it";
+                break;
+            }
+        }
+        fail(nullptr, key, ": missing (" + why + hint + ")");
+    }
+
+    std::optional<double> opt_number(std::string_view key) {
+        const toml::node* n = take(key);
+        if (!n) return std::nullopt;
+        return to_number(n, key);
+    }
+    double number(std::string_view key) {
+        const auto v = opt_number(key);
+        if (!v) missing(key);
+        return *v;
+    }
+    double number(std::string_view key, double fallback) { return opt_number(key).value_or(fallback); }
+
+    std::optional<std::int64_t> opt_integer(std::string_view key) {
+        const toml::node* n = take(key);
+        if (!n) return std::nullopt;
+        if (!n->is_integer()) fail(n, key, " = " + describe(*n) + ": must be an integer");
+        return n->as_integer()->get();
+    }
+
+    std::optional<std::string> opt_string(std::string_view key) {
+        const toml::node* n = take(key);
+        if (!n) return std::nullopt;
+        if (!n->is_string()) fail(n, key, " = " + describe(*n) + ": must be a string");
+        return n->as_string()->get();
+    }
+    std::string string(std::string_view key) {
+        auto v = opt_string(key);
+        if (!v) missing(key);
+        return *v;
+    }
+
+    std::optional<std::vector<double>> opt_numbers(std::string_view key) {
+        const toml::node* n = take(key);
+        if (!n) return std::nullopt;
+        const toml::array* a = n->as_array();
+        if (!a) fail(n, key, " = " + describe(*n) + ": must be an array of numbers");
+        std::vector<double> out;
+        out.reserve(a->size());
+        for (std::size_t i = 0; i < a->size(); ++i)
+            out.push_back(to_number(a->get(i), std::string(key) + "[" + std::to_string(i) + "]"));
+        return out;
+    }
+    std::vector<double> numbers(std::string_view key) {
+        auto v = opt_numbers(key);
+        if (!v) missing(key);
+        return std::move(*v);
+    }
+
+    const toml::table* opt_table(std::string_view key) {
+        const toml::node* n = take(key);
+        if (!n) return nullptr;
+        if (!n->is_table()) fail(n, key, " = " + describe(*n) + ": must be a table");
+        return n->as_table();
+    }
+    const toml::table& table(std::string_view key) {
+        const toml::table* t = opt_table(key);
+        if (!t) missing(key);
+        return *t;
+    }
+
+    // Every key of the table must have been looked up: anything else is a typo or misplaced.
+    void finish() const {
+        for (auto&& [key, node] : table_) {
+            if (std::find(looked_up_.begin(), looked_up_.end(), key.str()) != looked_up_.end()) continue;
+            std::vector<std::string> allowed(looked_up_.begin(), looked_up_.end());
+            std::sort(allowed.begin(), allowed.end());
+            allowed.erase(std::unique(allowed.begin(), allowed.end()), allowed.end());
+            throw LocatedError(where(node.source()) + key_path(key.str()) + ": unknown key" +
+                               (allowed.empty() ? std::string(" (this table takes no keys)")
+                                                : " (allowed here: " + join(allowed) + ")"));
+        }
+    }
+
+private:
+    static std::string location(const toml::source_region& src) {
+        std::string w = where(src);
+        return w.size() >= 2 ? w.substr(0, w.size() - 2) : w;  // without the trailing ": "
+    }
+    // Levenshtein distance (short keys only).
+    static std::size_t edit_distance(std::string_view a, std::string_view b) {
+        std::vector<std::size_t> row(b.size() + 1);
+        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+        for (std::size_t i = 1; i <= a.size(); ++i) {
+            std::size_t diagonal = row[0];
+            row[0] = i;
+            for (std::size_t j = 1; j <= b.size(); ++j) {
+                const std::size_t up = row[j];
+                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+                diagonal = up;
+            }
+        }
+        return row[b.size()];
+    }
+    static std::string join(const std::vector<std::string>& v) {
+        std::string out;
+        for (const auto& s : v) out += (out.empty() ? "" : ", ") + s;
+        return out;
+    }
+    double to_number(const toml::node* n, std::string_view key) const {
+        if (n->is_integer()) return static_cast<double>(n->as_integer()->get());
+        if (n->is_floating_point()) return n->as_floating_point()->get();
+        fail(n, key, " = " + describe(*n) + ": must be a number");
+    }
+
+    const toml::table& table_;
+    std::string path_;
+    SourceMap& sources_;
+    std::vector<std::string> looked_up_;
+};
+
+std::vector<std::pair<double, double>> zip(const TableReader& r, std::string_view values_key,
+                                           const std::vector<double>& x, const std::vector<double>& y,
+                                           double x_scale = 1.0) {
+    if (x.size() != y.size())
+        r.fail(nullptr, values_key,
+               ": has " + std::to_string(y.size()) + " entries but wavelengths_nm/altitudes_km has " +
+                   std::to_string(x.size()) + " (they must match)");
+    std::vector<std::pair<double, double>> out(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) out[i] = {x[i] * x_scale, y[i]};
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building the Scene
+
+const std::map<std::string, std::vector<double>, std::less<>>& named_samplings() {
+    static const auto samplings = [] {
+        const auto range = [](double first, double last, double step) {
+            std::vector<double> v;
+            for (double l = first; l <= last + 1e-9; l += step) v.push_back(l);
+            return v;
+        };
+        return std::map<std::string, std::vector<double>, std::less<>>{
+            {"cie-95", range(360.0, 830.0, 5.0)},        // the CIE table's own grid
+            {"bruneton-48", range(360.0, 830.0, 10.0)},  // Bruneton's demo (kLambdaMin..kLambdaMax)
+            {"blender-21", range(380.0, 780.0, 20.0)},   // Blender's Nishita sky
+        };
+    }();
+    return samplings;
+}
+
+SpectralCoefficient scaled(SpectralCoefficient c, double f) {
+    c.value_per_m *= f;
+    for (auto& [l, v] : c.table) v *= f;
+    return c;
+}
+
+class SceneBuilder {
+public:
+    explicit SceneBuilder(SourceMap& sources) : sources_(sources) {}
+
+    Scene build(const toml::table& root, const std::string& default_name) {
+        Scene s;
+        TableReader r(root, "", sources_);
+        s.name = r.opt_string("name").value_or(default_name);
+        s.planet = planet(r.table("planet"));
+        thickness_m_ = s.planet.atmosphere_top_m - s.planet.radius_m;
+        if (const toml::table* t = r.opt_table("sun")) s.sun = sun(*t);
+        if (const toml::table* t = r.opt_table("observer")) s.observer = observer(*t);
+        if (const toml::table* t = r.opt_table("camera")) s.camera = camera(*t);
+        s.basis = spectrum(r.table("spectrum"));
+        validate_basis(s.basis);
+        const std::vector<double> wl = basis_wavelengths_nm(s.basis);
+        basis_lo_nm_ = *std::min_element(wl.begin(), wl.end());
+        basis_hi_nm_ = *std::max_element(wl.begin(), wl.end());
+        if (const toml::node* n = r.take("constituent")) {
+            const toml::array* a = n->as_array();
+            if (!a) r.fail(n, "constituent", ": must be an array of tables, written [[constituent]]");
+            for (std::size_t i = 0; i < a->size(); ++i) {
+                const toml::node* e = a->get(i);
+                const std::string path = "constituent[" + std::to_string(i) + "]";
+                if (!e->is_table())
+                    throw LocatedError(where(e->source()) + path + " = " + describe(*e) + ": must be a table");
+                s.constituents.push_back(constituent(*e->as_table(), path));
+            }
+        }
+        r.finish();
+        return s;
+    }
+
+private:
+    Planet planet(const toml::table& t) {
+        TableReader r(t, "planet", sources_);
+        Planet p;
+        p.radius_m = r.number("radius_km") * kMetresPerKm;
+        p.atmosphere_top_m = r.number("atmosphere_top_km") * kMetresPerKm;
+        p.ground_albedo = r.number("ground_albedo", p.ground_albedo);
+        r.finish();
+        validate_planet(p);  // now: the column of every profile below depends on the thickness
+        return p;
+    }
+
+    Sun sun(const toml::table& t) {
+        TableReader r(t, "sun", sources_);
+        Sun s;
+        s.elevation_deg = r.number("elevation_deg", s.elevation_deg);
+        s.azimuth_deg = r.number("azimuth_deg", s.azimuth_deg);
+        s.angular_radius_deg = r.number("angular_radius_deg", s.angular_radius_deg);
+        const double d_au = r.number("distance_au", 1.0);
+        require_range(std::isfinite(d_au) && d_au > 0.0 && d_au <= 1000.0, "sun.distance_au", d_au,
+                      "must be in (0, 1000]");
+        const double inverse_square = 1.0 / (d_au * d_au);  // irradiance is given at 1 AU
+        if (const toml::table* it = r.opt_table("irradiance")) {
+            TableReader ir(*it, "sun.irradiance", sources_);
+            const std::string type = ir.string("type");
+            if (type == "constant") {
+                s.irradiance_constant = ir.number("value_w_m2_nm", 1.0) * inverse_square;
+            } else if (type == "table") {
+                const auto w = ir.numbers("wavelengths_nm");
+                auto v = ir.numbers("values_w_m2_nm");
+                for (double& x : v) x *= inverse_square;
+                s.irradiance_table = zip(ir, "values_w_m2_nm", w, v);
+            } else {
+                ir.fail(it->get("type"), "type", " = " + in_quotes(type) + ": must be \"constant\" or \"table\"");
+            }
+            ir.finish();
+        } else {
+            s.irradiance_constant *= inverse_square;
+        }
+        r.finish();
+        return s;
+    }
+
+    Observer observer(const toml::table& t) {
+        TableReader r(t, "observer", sources_);
+        Observer o;
+        o.altitude_m = r.number("altitude_km", 0.0) * kMetresPerKm;
+        r.finish();
+        return o;
+    }
+
+    Camera camera(const toml::table& t) {
+        TableReader r(t, "camera", sources_);
+        Camera c;
+        const auto vec3 = [&](std::string_view key, double(&out)[3]) {
+            if (auto v = r.opt_numbers(key)) {
+                if (v->size() != 3)
+                    r.fail(t.get(key), key, ": must have 3 components (has " + std::to_string(v->size()) + ")");
+                std::copy(v->begin(), v->end(), out);
+            }
+        };
+        vec3("position_m", c.position_m);
+        vec3("direction", c.direction);
+        vec3("up", c.up);
+        c.fov_deg = r.number("fov_deg", c.fov_deg);
+        c.max_distance_m = r.number("max_distance_km", c.max_distance_m / kMetresPerKm) * kMetresPerKm;
+        const auto side = [&](std::string_view key, int& out) {
+            if (auto v = r.opt_integer(key)) {
+                require_range(*v >= 1 && *v <= kMaxImageSide, r.key_path(key), static_cast<double>(*v),
+                              "must be in [1, " + std::to_string(kMaxImageSide) + "]");
+                out = static_cast<int>(*v);
+            }
+        };
+        side("width", c.width);
+        side("height", c.height);
+        r.finish();
+        return c;
+    }
+
+    SpectralBasis spectrum(const toml::table& t) {
+        TableReader r(t, "spectrum", sources_);
+        SpectralBasis b;
+        const std::string basis = r.string("basis");
+        if (basis == "rgb-schuler") {
+            b.kind = SpectralBasis::Kind::rgb_schuler;
+            for (std::string_view key : {"wavelengths_nm", "sampling"})
+                if (r.has(key))
+                    r.fail(t.get(key), key,
+                           ": not allowed with basis = \"rgb-schuler\" (its wavelengths are 615, 535, 445 nm)");
+            b.wavelengths_nm.assign(kSchulerWavelengthsNm.begin(), kSchulerWavelengthsNm.end());
+        } else if (basis == "spectral") {
+            b.kind = SpectralBasis::Kind::spectral;
+            const auto explicit_nm = r.opt_numbers("wavelengths_nm");
+            const auto sampling = r.opt_string("sampling");
+            if (explicit_nm && sampling)
+                r.fail(t.get("sampling"), "sampling",
+                       ": give either spectrum.wavelengths_nm or spectrum.sampling, not both");
+            if (explicit_nm) {
+                b.wavelengths_nm = *explicit_nm;
+            } else if (sampling) {
+                const auto& named = named_samplings();
+                const auto it = named.find(*sampling);
+                if (it == named.end()) {
+                    std::vector<std::string> names;
+                    for (const auto& [k, v] : named) names.push_back(k);
+                    r.fail(t.get("sampling"), "sampling",
+                           " = " + in_quotes(*sampling) + ": must be one of " + join_quoted(names));
+                }
+                b.wavelengths_nm = it->second;
+            } else {
+                r.missing("wavelengths_nm", "a spectral basis needs wavelengths_nm = [...] or sampling = \"...\"");
+            }
+        } else {
+            r.fail(t.get("basis"), "basis", " = " + in_quotes(basis) + ": must be \"spectral\" or \"rgb-schuler\"");
+        }
+        r.finish();
+        return b;
+    }
+
+    DensityProfile profile(const toml::table& t, const std::string& path) {
+        TableReader r(t, path, sources_);
+        DensityProfile p;
+        const std::string type = r.string("type");
+        if (type == "exponential") {
+            p.kind = DensityProfile::Kind::exponential;
+            p.scale_height_m = r.number("scale_height_km") * kMetresPerKm;
+            p.reference_altitude_m = r.number("reference_altitude_km", 0.0) * kMetresPerKm;
+        } else if (type == "tent") {
+            p.kind = DensityProfile::Kind::tent;
+            p.bottom_m = r.number("bottom_km") * kMetresPerKm;
+            p.peak_m = r.number("peak_km") * kMetresPerKm;
+            p.top_m = r.number("top_km") * kMetresPerKm;
+        } else if (type == "piecewise-linear") {
+            p.kind = DensityProfile::Kind::piecewise_linear;
+            p.knots = zip(r, "densities", r.numbers("altitudes_km"), r.numbers("densities"), kMetresPerKm);
+        } else if (type == "constant") {
+            p.kind = DensityProfile::Kind::constant;
+            p.value = r.number("value", 1.0);
+            p.bottom_m = r.number("bottom_km", 0.0) * kMetresPerKm;
+            p.top_m = r.number("top_km", 0.0) * kMetresPerKm;
+        } else {
+            r.fail(t.get("type"), "type",
+                   " = " + in_quotes(type) +
+                       ": must be one of \"exponential\", \"tent\", \"piecewise-linear\", \"constant\"");
+        }
+        r.finish();
+        validate_profile(path, p);  // now: the laws below integrate it
+        return p;
+    }
+
+    // A coefficient law (docs/scene.md "Coefficients"). The profile and the atmosphere's
+    // thickness give the vertical column for the "angstrom" law and for ozone columns.
+    SpectralCoefficient coefficient(const toml::table& t, const std::string& path, const DensityProfile& prof) {
+        TableReader r(t, path, sources_);
+        SpectralCoefficient c;
+        const auto column_m = [&](std::string_view what) {
+            const double col = vertical_column_m(prof, thickness_m_);
+            if (!(std::isfinite(col) && col > 0.0))
+                r.fail(t.get(what), what,
+                       ": needs a profile with a non-zero, finite column below the atmosphere top (column = " +
+                           num(col) + " m)");
+            return col;
+        };
+        const auto non_negative = [&](std::string_view key) {
+            const double v = r.number(key);
+            require_non_negative(r.key_path(key), v);
+            return v;
+        };
+        const std::string law = r.string("law");
+        if (law == "constant") {
+            c.law = SpectralCoefficient::Law::constant;
+            c.value_per_m = r.number("value_per_m");
+        } else if (law == "power-law") {
+            c.law = SpectralCoefficient::Law::power_law;
+            c.value_per_m = r.number("value_per_m");
+            c.reference_nm = r.number("reference_nm");
+            c.exponent = r.number("exponent");
+        } else if (law == "rayleigh") {
+            // σ(λ) = k · (λ / 1 µm)⁻⁴
+            c.law = SpectralCoefficient::Law::power_law;
+            c.value_per_m = non_negative("value_per_m_at_1um");
+            c.reference_nm = 1000.0;
+            c.exponent = 4.0;
+        } else if (law == "angstrom") {
+            // Ångström: vertical optical depth τ(λ) = β·(λ / 1 µm)^−α, spread over the profile's
+            // column: σ(λ) = β / column · (λ / 1 µm)^−α (Bruneton's demo: β / H).
+            c.law = SpectralCoefficient::Law::power_law;
+            const double beta = non_negative("beta");
+            const double alpha = r.number("alpha");
+            require_range(std::isfinite(alpha) && std::abs(alpha) <= kMaxExponent, r.key_path("alpha"), alpha,
+                          "must be in [-" + num(kMaxExponent) + ", " + num(kMaxExponent) + "]");
+            c.value_per_m = beta / column_m("beta");
+            c.reference_nm = 1000.0;
+            c.exponent = alpha;
+        } else if (law == "table") {
+            c.law = SpectralCoefficient::Law::table;
+            const auto w = r.numbers("wavelengths_nm");
+            const auto values = r.opt_numbers("values_per_m");
+            const auto cross = r.opt_numbers("cross_sections_m2");
+            if (values.has_value() == cross.has_value())
+                r.fail(nullptr, "values_per_m",
+                       ": give exactly one of values_per_m or cross_sections_m2 (with "
+                       "number_density_per_m3 or column_du)");
+            if (values) {
+                c.table = zip(r, "values_per_m", w, *values);
+            } else {
+                for (std::size_t i = 0; i < cross->size(); ++i)
+                    require_non_negative(r.key_path("cross_sections_m2") + "[" + std::to_string(i) + "]", (*cross)[i]);
+                const auto density = r.opt_number("number_density_per_m3");
+                const auto column_du = r.opt_number("column_du");
+                if (density.has_value() == column_du.has_value())
+                    r.fail(nullptr, "number_density_per_m3",
+                           ": cross_sections_m2 need exactly one of number_density_per_m3 or column_du");
+                double n_per_m3 = 0.0;
+                if (density) {
+                    require_non_negative(r.key_path("number_density_per_m3"), *density);
+                    n_per_m3 = *density;
+                } else {
+                    // Number density at density 1 such that ∫ n ρ(h) dh = column (Bruneton's
+                    // kMaxOzoneNumberDensity = 300 DU / 15 km for the ozone tent).
+                    require_non_negative(r.key_path("column_du"), *column_du);
+                    n_per_m3 = *column_du * kMoleculesPerM2PerDobson / column_m("column_du");
+                }
+                std::vector<double> v(cross->size());
+                for (std::size_t i = 0; i < v.size(); ++i) v[i] = (*cross)[i] * n_per_m3;
+                c.table = zip(r, "cross_sections_m2", w, v);
+            }
+        } else {
+            r.fail(t.get("law"), "law",
+                   " = " + in_quotes(law) +
+                       ": must be one of \"constant\", \"power-law\", \"rayleigh\", \"angstrom\", \"table\"");
+        }
+        r.finish();
+        return c;
+    }
+
+    PhaseFunction phase(const toml::table& t, const std::string& path) {
+        TableReader r(t, path, sources_);
+        PhaseFunction p;
+        const std::string type = r.string("type");
+        if (type == "rayleigh") {
+            p.kind = PhaseFunction::Kind::rayleigh;
+        } else if (type == "rayleigh-modified") {
+            p.kind = PhaseFunction::Kind::rayleigh_modified;
+        } else if (type == "isotropic") {
+            p.kind = PhaseFunction::Kind::isotropic;
+        } else if (type == "cornette-shanks" || type == "henyey-greenstein") {
+            p.kind = type == "cornette-shanks" ? PhaseFunction::Kind::cornette_shanks
+                                               : PhaseFunction::Kind::henyey_greenstein;
+            p.g = r.number("g");
+        } else {
+            r.fail(t.get("type"), "type",
+                   " = " + in_quotes(type) +
+                       ": must be one of \"rayleigh\", \"rayleigh-modified\", \"cornette-shanks\", "
+                       "\"henyey-greenstein\", \"isotropic\"");
+        }
+        r.finish();
+        validate_phase(path, p);
+        return p;
+    }
+
+    Constituent constituent(const toml::table& t, const std::string& path) {
+        TableReader r(t, path, sources_);
+        Constituent c;
+        c.name = r.string("name");
+        c.profile = profile(r.table("profile"), path + ".profile");
+        const bool by_extinction = r.has("extinction");
+        if (by_extinction && (r.has("scattering") || r.has("absorption")))
+            r.fail(t.get("extinction"), "extinction",
+                   ": give either extinction + single_scattering_albedo, or scattering and/or absorption — not both");
+        if (by_extinction) {
+            const SpectralCoefficient ext = coefficient(r.table("extinction"), path + ".extinction", c.profile);
+            const toml::node* ssa = r.take("single_scattering_albedo");
+            if (!ssa) r.missing("single_scattering_albedo", "required with extinction");
+            split_extinction(c, ext, *ssa, path + ".single_scattering_albedo");
+        } else {
+            if (r.has("single_scattering_albedo"))
+                r.fail(t.get("single_scattering_albedo"), "single_scattering_albedo", ": only allowed with extinction");
+            if (const toml::table* s = r.opt_table("scattering"))
+                c.scattering = coefficient(*s, path + ".scattering", c.profile);
+            if (const toml::table* a = r.opt_table("absorption"))
+                c.absorption = coefficient(*a, path + ".absorption", c.profile);
+        }
+        if (const toml::table* ph = r.opt_table("phase")) {
+            c.phase = phase(*ph, path + ".phase");
+        } else {
+            if (!c.scattering.is_zero()) r.missing("phase", "required: the constituent scatters light");
+            c.phase.kind = PhaseFunction::Kind::isotropic;  // never used: nothing is scattered
+        }
+        r.finish();
+        return c;
+    }
+
+    // scattering = ω·extinction, absorption = (1 − ω)·extinction. ω is a number, or a table
+    // {wavelengths_nm, values}: then both become tables at ω's wavelengths (exact at the knots,
+    // linear between them).
+    void split_extinction(Constituent& c, const SpectralCoefficient& ext, const toml::node& ssa,
+                          const std::string& path) {
+        if (ssa.is_integer() || ssa.is_floating_point()) {
+            const double w =
+                ssa.is_integer() ? static_cast<double>(ssa.as_integer()->get()) : ssa.as_floating_point()->get();
+            sources_[path] = ssa.source();
+            require_range(std::isfinite(w) && w >= 0.0 && w <= 1.0, path, w, "must be in [0, 1]");
+            c.scattering = scaled(ext, w);
+            c.absorption = scaled(ext, 1.0 - w);
+            return;
+        }
+        if (!ssa.is_table())
+            throw LocatedError(where(ssa.source()) + path + " = " + describe(ssa) +
+                               ": must be a number in [0, 1] or a table {wavelengths_nm, values}");
+        TableReader r(*ssa.as_table(), path, sources_);
+        const auto table = zip(r, "values", r.numbers("wavelengths_nm"), r.numbers("values"));
+        r.finish();
+        check_table(path, table, "values", basis_lo_nm_, basis_hi_nm_, /*values_at_most_one=*/true);
+        c.scattering = SpectralCoefficient{};
+        c.absorption = SpectralCoefficient{};
+        c.scattering.law = c.absorption.law = SpectralCoefficient::Law::table;
+        for (const auto& [l, w] : table) {
+            c.scattering.table.emplace_back(l, w * ext.at(l));
+            c.absorption.table.emplace_back(l, (1.0 - w) * ext.at(l));
+        }
+    }
+
+    SourceMap& sources_;
+    double thickness_m_ = 0.0;
+    double basis_lo_nm_ = 0.0, basis_hi_nm_ = 0.0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Presets and merging
+
+std::optional<std::string_view> embedded_preset(std::string_view name) {
+    for (std::size_t i = 0; i < detail::kEmbeddedPresetCount; ++i) {
+        const auto& p = detail::kEmbeddedPresets[i];
+        if (p.name && name == p.name) return std::string_view(reinterpret_cast<const char*>(p.text), p.size);
+    }
+    return std::nullopt;
+}
+
+std::string preset_source_name(std::string_view name) { return "<preset " + std::string(name) + ">"; }
+
+toml::table parse_toml(std::string_view text, std::string_view source_name) {
+    try {
+        return toml::parse(text, source_name);
+    } catch (const toml::parse_error& e) {
+        throw LocatedError(where(e.source()) + "TOML syntax error: " + std::string(e.description()));
+    }
+}
+
+// Keys that exclude each other: an override that sets one side drops the other side inherited
+// from the preset (e.g. a file giving spectrum.wavelengths_nm replaces the preset's sampling).
+const std::vector<std::pair<std::vector<std::string_view>, std::vector<std::string_view>>>& exclusive_keys() {
+    static const std::vector<std::pair<std::vector<std::string_view>, std::vector<std::string_view>>> groups = {
+        {{"sampling"}, {"wavelengths_nm"}},
+        {{"extinction", "single_scattering_albedo"}, {"scattering", "absorption"}},
+        {{"values_per_m"}, {"cross_sections_m2", "number_density_per_m3", "column_du"}},
+        {{"number_density_per_m3"}, {"column_du"}},
+    };
+    return groups;
+}
+
+void merge_table(toml::table& base, toml::table&& over);
+
+// [[constituent]] entries of an override are matched to the preset's by name and merged into
+// them; entries with a new name are appended.
+void merge_constituents(toml::array& base, toml::array&& over) {
+    for (toml::node& e : over) {
+        toml::table* ot = e.as_table();
+        const toml::node* name = ot ? ot->get("name") : nullptr;
+        toml::table* match = nullptr;
+        if (name && name->is_string())
+            for (toml::node& b : base)
+                if (toml::table* bt = b.as_table())
+                    if (const toml::node* bn = bt->get("name");
+                        bn && bn->is_string() && bn->value<std::string>() == name->value<std::string>())
+                        match = bt;
+        if (match)
+            merge_table(*match, std::move(*ot));
+        else
+            base.push_back(std::move(e));
+    }
+}
+
+// Tables merge key by key; a sub-table that names its kind (`type` or `law`), a spectrum that
+// names its `basis`, and every non-table value replace the inherited one as a whole.
+void merge_table(toml::table& base, toml::table&& over) {
+    for (const auto& [side_a, side_b] : exclusive_keys()) {
+        const auto sets = [&](const std::vector<std::string_view>& keys) {
+            return std::any_of(keys.begin(), keys.end(), [&](std::string_view k) { return over.contains(k); });
+        };
+        const auto drop = [&](const std::vector<std::string_view>& keys) {
+            for (std::string_view k : keys) base.erase(k);
+        };
+        if (sets(side_a)) drop(side_b);
+        if (sets(side_b)) drop(side_a);
+    }
+    for (auto&& [key, value] : over) {
+        toml::node* existing = base.get(key.str());
+        if (existing && key.str() == "constituent" && existing->is_array() && value.is_array()) {
+            merge_constituents(*existing->as_array(), std::move(*value.as_array()));
+            continue;
+        }
+        if (existing && existing->is_table() && value.is_table()) {
+            const toml::table& ov = *value.as_table();
+            const bool whole =
+                ov.contains("type") || ov.contains("law") || (key.str() == "spectrum" && ov.contains("basis"));
+            if (!whole) {
+                merge_table(*existing->as_table(), std::move(*value.as_table()));
+                continue;
+            }
+        }
+        base.insert_or_assign(key.str(), std::move(value));
+    }
+}
+
+// Replaces `preset = "name"` by the named preset with this table merged over it.
+toml::table resolve_presets(toml::table doc, std::vector<std::string>& chain) {
+    const toml::node* p = doc.get("preset");
+    if (!p) return doc;
+    std::vector<std::string> names = preset_names();
+    if (!p->is_string())
+        throw LocatedError(where(p->source()) + "preset = " + describe(*p) + ": must be a preset name (one of " +
+                           join_quoted(names) + ")");
+    const std::string name = p->as_string()->get();
+    const auto text = embedded_preset(name);
+    if (!text)
+        throw LocatedError(where(p->source()) + "preset = " + in_quotes(name) +
+                           ": unknown preset (available: " + join_quoted(names) + ")");
+    if (std::find(chain.begin(), chain.end(), name) != chain.end())
+        throw LocatedError(where(p->source()) + "preset = " + in_quotes(name) +
+                           ": presets include each other in a cycle");
+    chain.push_back(name);
+    toml::table base = resolve_presets(parse_toml(*text, preset_source_name(name)), chain);
+    doc.erase("preset");
+    base.erase("name");  // a scene derived from a preset is named by its own file
+    merge_table(base, std::move(doc));
+    return base;
+}
+
+// Prefix a validate() message with the source position of the field it names.
+std::string locate(const std::string& message, const SourceMap& sources, std::string_view source_name) {
+    std::string path = message.substr(0, message.find_first_of(" :"));
+    while (!path.empty()) {
+        const auto it = sources.find(path);
+        if (it != sources.end() && it->second.begin) return where(it->second) + message;
+        const auto cut = path.find_last_of(".[");
+        if (cut == std::string::npos) break;
+        path.resize(cut);
+    }
+    return std::string(source_name) + ": " + message;
+}
+
+Scene parse_impl(std::string_view text, std::string_view source_name, const std::string& default_name,
+                 std::vector<std::string> chain = {}) {
+    toml::table root = resolve_presets(parse_toml(text, source_name), chain);
+    SourceMap sources;
+    try {
+        Scene scene = SceneBuilder(sources).build(root, default_name);
+        validate(scene);
+        return scene;
+    } catch (const LocatedError&) {
+        throw;
+    } catch (const SceneError& e) {
+        // validate()'s messages name a field path: point them at the line that set it.
+        throw SceneError(locate(e.what(), sources, source_name));
+    }
+}
+
+std::string default_name_for(std::string_view source_name) {
+    const std::filesystem::path p(source_name);
+    if (p.extension() == ".toml") return p.stem().string();
+    return "scene";
+}
+
+// ---------------------------------------------------------------------------------------------
+// JSON
+
+using Json = nlohmann::ordered_json;
+
+Json pairs_json(const std::vector<std::pair<double, double>>& t, const char* x_key, const char* y_key) {
+    Json x = Json::array(), y = Json::array();
+    for (const auto& [a, b] : t) {
+        x.push_back(a);
+        y.push_back(b);
+    }
+    return Json{{x_key, std::move(x)}, {y_key, std::move(y)}};
+}
+
+Json coefficient_json(const SpectralCoefficient& c) {
+    switch (c.law) {
+        case SpectralCoefficient::Law::constant: return {{"law", "constant"}, {"value_per_m", c.value_per_m}};
+        case SpectralCoefficient::Law::power_law:
+            return {{"law", "power-law"},
+                    {"value_per_m", c.value_per_m},
+                    {"reference_nm", c.reference_nm},
+                    {"exponent", c.exponent}};
+        case SpectralCoefficient::Law::table: {
+            Json j = {{"law", "table"}};
+            j.update(pairs_json(c.table, "wavelengths_nm", "values_per_m"));
+            return j;
+        }
+    }
+    return {};
+}
+
+Json profile_json(const DensityProfile& p) {
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential:
+            return {{"type", "exponential"},
+                    {"scale_height_m", p.scale_height_m},
+                    {"reference_altitude_m", p.reference_altitude_m}};
+        case DensityProfile::Kind::tent:
+            return {{"type", "tent"}, {"bottom_m", p.bottom_m}, {"peak_m", p.peak_m}, {"top_m", p.top_m}};
+        case DensityProfile::Kind::piecewise_linear: {
+            Json j = {{"type", "piecewise-linear"}};
+            j.update(pairs_json(p.knots, "altitudes_m", "densities"));
+            return j;
+        }
+        case DensityProfile::Kind::constant:
+            return {{"type", "constant"}, {"value", p.value}, {"bottom_m", p.bottom_m}, {"top_m", p.top_m}};
+    }
+    return {};
+}
+
+Json phase_json(const PhaseFunction& p) {
+    switch (p.kind) {
+        case PhaseFunction::Kind::rayleigh: return {{"type", "rayleigh"}};
+        case PhaseFunction::Kind::rayleigh_modified: return {{"type", "rayleigh-modified"}};
+        case PhaseFunction::Kind::isotropic: return {{"type", "isotropic"}};
+        case PhaseFunction::Kind::cornette_shanks: return {{"type", "cornette-shanks"}, {"g", p.g}};
+        case PhaseFunction::Kind::henyey_greenstein: return {{"type", "henyey-greenstein"}, {"g", p.g}};
+    }
+    return {};
+}
+
+Json vec3_json(const double (&v)[3]) { return Json::array({v[0], v[1], v[2]}); }
+
+}  // namespace
+
+// =============================================================================================
+// Public interface
+
+double vertical_column_m(const DensityProfile& p, double thickness_m) {
+    if (!(thickness_m > 0.0)) return 0.0;
+    // ∫ of a piecewise-linear function through `knots` (0 outside them) over [0, thickness].
+    const auto piecewise = [thickness_m](const std::vector<std::pair<double, double>>& knots) {
+        double sum = 0.0;
+        for (std::size_t i = 0; i + 1 < knots.size(); ++i) {
+            const auto [x0, y0] = knots[i];
+            const auto [x1, y1] = knots[i + 1];
+            const double a = std::max(x0, 0.0), b = std::min(x1, thickness_m);
+            if (!(b > a) || !(x1 > x0)) continue;
+            const auto y = [&](double x) { return y0 + (y1 - y0) * (x - x0) / (x1 - x0); };
+            sum += 0.5 * (b - a) * (y(a) + y(b));
+        }
+        return sum;
+    };
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential:
+            // ∫₀^T exp(−(h − h₀)/H) dh = H·exp(h₀/H)·(1 − exp(−T/H))
+            return -p.scale_height_m * std::exp(p.reference_altitude_m / p.scale_height_m) *
+                   std::expm1(-thickness_m / p.scale_height_m);
+        case DensityProfile::Kind::tent: return piecewise({{p.bottom_m, 0.0}, {p.peak_m, 1.0}, {p.top_m, 0.0}});
+        case DensityProfile::Kind::piecewise_linear: return piecewise(p.knots);
+        case DensityProfile::Kind::constant: {
+            const double lo = std::max(p.bottom_m, 0.0);
+            const double hi = p.top_m > p.bottom_m ? std::min(p.top_m, thickness_m) : thickness_m;
+            return hi > lo ? p.value * (hi - lo) : 0.0;
+        }
+    }
+    return 0.0;
+}
+
+void validate(const Scene& scene) {
+    validate_planet(scene.planet);
+
+    const Sun& sun = scene.sun;
+    require_range(std::isfinite(sun.elevation_deg) && std::abs(sun.elevation_deg) <= 90.0, "sun.elevation_deg",
+                  sun.elevation_deg, "must be in [-90, 90]");
+    require_range(std::isfinite(sun.azimuth_deg) && std::abs(sun.azimuth_deg) <= 360.0, "sun.azimuth_deg",
+                  sun.azimuth_deg, "must be in [-360, 360]");
+    require_range(std::isfinite(sun.angular_radius_deg) && sun.angular_radius_deg > 0.0 &&
+                      sun.angular_radius_deg <= kMaxAngularRadiusDeg,
+                  "sun.angular_radius_deg", sun.angular_radius_deg,
+                  "must be in (0, " + num(kMaxAngularRadiusDeg) + "]");
+
+    const double altitude_km = scene.observer.altitude_m / kMetresPerKm;
+    require_range(std::isfinite(altitude_km) && altitude_km >= 0.0 && altitude_km <= kMaxRadiusKm,
+                  "observer.altitude_km", altitude_km, "must be in [0, " + num(kMaxRadiusKm) + "]");
+    if (scene.camera) validate_camera(*scene.camera);
+
+    validate_basis(scene.basis);
+    const std::vector<double> wl = basis_wavelengths_nm(scene.basis);
+    const double lo = *std::min_element(wl.begin(), wl.end());
+    const double hi = *std::max_element(wl.begin(), wl.end());
+
+    if (sun.irradiance_table.empty())
+        require_non_negative("sun.irradiance.value_w_m2_nm", sun.irradiance_constant);
+    else
+        check_table("sun.irradiance", sun.irradiance_table, "values_w_m2_nm", lo, hi);
+
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
+        const Constituent& c = scene.constituents[i];
+        const std::string path = "constituent[" + std::to_string(i) + "]";
+        if (!valid_name(c.name))
+            throw SceneError(path + ".name = " + in_quotes(c.name) +
+                             ": must be 1-64 characters from A-Z a-z 0-9 _ - . (it names a VDB grid)");
+        if (!names.insert(c.name).second)
+            throw SceneError(path + ".name = " + in_quotes(c.name) + ": another constituent already has this name");
+        try {
+            validate_profile(path + ".profile", c.profile);
+            validate_coefficient(path + ".scattering", c.scattering, lo, hi);
+            validate_coefficient(path + ".absorption", c.absorption, lo, hi);
+            validate_phase(path + ".phase", c.phase);
+        } catch (const SceneError& e) {
+            throw SceneError(std::string(e.what()) + " (constituent " + in_quotes(c.name) + ")");
+        }
+    }
+}
+
+std::vector<Constituent> active_constituents(const Scene& scene) {
+    std::vector<Constituent> out;
+    for (const Constituent& c : scene.constituents)
+        if (!c.scattering.is_zero() || !c.absorption.is_zero()) out.push_back(c);
+    return out;
+}
+
+Scene parse_scene_toml(std::string_view toml_text, std::string_view source_name) {
+    return parse_impl(toml_text, source_name, default_name_for(source_name));
+}
+
+Scene load_scene_file(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(path.string() + ": cannot open the scene file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) throw SceneError(path.string() + ": cannot read the scene file");
+    return parse_impl(text.str(), path.string(), path.stem().string());
+}
+
+Scene load_preset(std::string_view name) {
+    const auto text = embedded_preset(name);
+    if (!text)
+        throw SceneError("unknown preset " + in_quotes(name) + " (available: " + join_quoted(preset_names()) + ")");
+    return parse_impl(*text, preset_source_name(name), std::string(name), {std::string(name)});
+}
+
+std::vector<std::string> preset_names() {
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < detail::kEmbeddedPresetCount; ++i)
+        if (detail::kEmbeddedPresets[i].name) names.emplace_back(detail::kEmbeddedPresets[i].name);
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+std::string scene_to_json(const Scene& scene) {
+    Json j;
+    j["format"] = "airmass-scene-1";
+    j["name"] = scene.name;
+    j["planet"] = {{"radius_m", scene.planet.radius_m},
+                   {"atmosphere_top_m", scene.planet.atmosphere_top_m},
+                   {"ground_albedo", scene.planet.ground_albedo}};
+    Json irradiance;
+    if (scene.sun.irradiance_table.empty()) {
+        irradiance = {{"type", "constant"}, {"value_w_m2_nm", scene.sun.irradiance_constant}};
+    } else {
+        irradiance = {{"type", "table"}};
+        irradiance.update(pairs_json(scene.sun.irradiance_table, "wavelengths_nm", "values_w_m2_nm"));
+    }
+    j["sun"] = {{"elevation_deg", scene.sun.elevation_deg},
+                {"azimuth_deg", scene.sun.azimuth_deg},
+                {"angular_radius_deg", scene.sun.angular_radius_deg},
+                {"irradiance", std::move(irradiance)}};
+    j["observer"] = {{"altitude_m", scene.observer.altitude_m}};
+    if (scene.camera) {
+        const Camera& c = *scene.camera;
+        j["camera"] = {{"position_m", vec3_json(c.position_m)},
+                       {"direction", vec3_json(c.direction)},
+                       {"up", vec3_json(c.up)},
+                       {"fov_deg", c.fov_deg},
+                       {"max_distance_m", c.max_distance_m},
+                       {"width", c.width},
+                       {"height", c.height}};
+    }
+    j["spectrum"] = {{"basis", scene.basis.kind == SpectralBasis::Kind::rgb_schuler ? "rgb-schuler" : "spectral"},
+                     {"wavelengths_nm", basis_wavelengths_nm(scene.basis)}};
+    Json constituents = Json::array();
+    for (const Constituent& c : scene.constituents)
+        constituents.push_back({{"name", c.name},
+                                {"profile", profile_json(c.profile)},
+                                {"scattering", coefficient_json(c.scattering)},
+                                {"absorption", coefficient_json(c.absorption)},
+                                {"phase", phase_json(c.phase)}});
+    j["constituents"] = std::move(constituents);
+    return j.dump();
+}
+
+}  // namespace airmass
