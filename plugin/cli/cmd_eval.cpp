@@ -1,8 +1,162 @@
-// Placeholder: `airmass eval` is being built (see the open issues).
+// `airmass eval`: single-scattering radiance and transmittance along view rays.
+//
+//   airmass eval (--preset NAME | SCENE.toml) [--wavelengths 680,550,440]
+//       [--solar-irradiance W_M2_NM] [--samples N] [--chapman METHOD] [--sun-disc]
+//       [--no-ground] [--reference] [--threads N]
+//   in:  altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg   (stdin; header allowed)
+//   out: altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg,wavelength_nm,
+//        transmittance,radiance_rayleigh,radiance_mie,radiance    (one row per wavelength)
+//
+// The observer is at altitude_m above the surface; the view direction has zenith angle
+// view_zenith_deg and the sun zenith angle sun_zenith_deg, azimuth_deg apart. transmittance
+// is along the view ray to space or to the ground; radiances are W m⁻² sr⁻¹ nm⁻¹ for the
+// scene's top-of-atmosphere solar spectrum, or for --solar-irradiance if given (1 gives
+// radiance per unit irradiance). Equations and accuracy: docs/evaluation.md.
+// --reference evaluates by brute-force nested quadrature instead (slow; for checks).
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "airmass/atmosphere.hpp"
+#include "airmass/geometry.hpp"
+#include "airmass/scene_io.hpp"
+#include "airmass/single_scattering.hpp"
 #include "commands.hpp"
+#include "csv.hpp"
 
 namespace airmass::cli {
 
-void add_eval_command(CLI::App&) {}
+namespace {
+
+struct EvalOptions {
+    std::string scene_path, preset;
+    std::string wavelengths = "680,550,440";
+    std::optional<double> solar_irradiance;
+    int samples = EvalSettings{}.view_samples;
+    std::string chapman = std::string(chapman_method_name(EvalSettings{}.chapman));
+    bool sun_disc = false;
+    bool no_ground = false;
+    bool reference = false;
+    int threads = 0;
+};
+
+std::vector<double> parse_wavelength_list(const std::string& spec) {
+    std::vector<double> out;
+    std::stringstream ss(spec);
+    std::string part;
+    while (std::getline(ss, part, ',')) {
+        std::size_t used = 0;
+        double v = 0.0;
+        try {
+            v = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        while (used < part.size() && (part[used] == ' ' || part[used] == '\t')) ++used;
+        if (part.empty() || used != part.size() || !std::isfinite(v) || !(v > 0.0) || v >= 1e6)
+            throw CliError("eval: --wavelengths '" + spec + "': '" + part +
+                           "' is not a wavelength in nm (a number in (0, 1e6))");
+        out.push_back(v);
+    }
+    if (out.empty()) throw CliError("eval: --wavelengths is empty");
+    return out;
+}
+
+void check_row(const NumericRow& r) {
+    const auto fail = [&](const char* name, double v, const char* range) {
+        throw CliError("eval: line " + std::to_string(r.line) + ": " + name + " = " + format_g17(v) + ": " + range);
+    };
+    if (!(r.values[0] >= 0.0 && r.values[0] <= 1e9)) fail("altitude_m", r.values[0], "must be in [0, 1e9]");
+    if (!(r.values[1] >= 0.0 && r.values[1] <= 180.0)) fail("view_zenith_deg", r.values[1], "must be in [0, 180]");
+    if (!(r.values[2] >= 0.0 && r.values[2] <= 180.0)) fail("sun_zenith_deg", r.values[2], "must be in [0, 180]");
+    if (!(r.values[3] >= -360.0 && r.values[3] <= 360.0)) fail("azimuth_deg", r.values[3], "must be in [-360, 360]");
+}
+
+}  // namespace
+
+void add_eval_command(CLI::App& app) {
+    auto opt = std::make_shared<EvalOptions>();
+    auto* cmd = app.add_subcommand(
+        "eval", "Single-scattering transmittance and radiance for altitude_m,view_zenith_deg,sun_zenith_deg,"
+                "azimuth_deg rows read from stdin");
+    cmd->add_option("scene", opt->scene_path, "Scene file (.toml)");
+    cmd->add_option("--preset", opt->preset, "Built-in scene by name (see docs/scene.md)");
+    cmd->add_option("--wavelengths", opt->wavelengths, "Comma-separated wavelengths in nm")->capture_default_str();
+    cmd->add_option("--solar-irradiance", opt->solar_irradiance,
+                    "Constant top-of-atmosphere irradiance in W m^-2 nm^-1 (default: the scene's spectrum)");
+    cmd->add_option("--samples", opt->samples, "View-ray samples per scattering constituent")->capture_default_str();
+    cmd->add_option("--chapman", opt->chapman, "Chapman method (airmass chapman --list-methods)")
+        ->capture_default_str();
+    cmd->add_flag("--sun-disc", opt->sun_disc, "Add the solar disc to rays that look into it");
+    cmd->add_flag("--no-ground", opt->no_ground, "Do not add the sunlit ground's radiance");
+    cmd->add_flag("--reference", opt->reference, "Brute-force nested quadrature instead (slow)");
+    cmd->add_option("--threads", opt->threads, "Worker threads (0: all cores)")->capture_default_str();
+    cmd->callback([opt] {
+        if (opt->scene_path.empty() == opt->preset.empty())
+            throw CliError("eval: give exactly one of SCENE.toml or --preset NAME");
+        const Scene scene = opt->preset.empty() ? load_scene_file(opt->scene_path) : load_preset(opt->preset);
+        const auto method = chapman_method_from_name(opt->chapman);
+        if (!method) throw CliError("eval: unknown --chapman '" + opt->chapman + "' (see airmass chapman --list-methods)");
+        if (opt->samples < 1 || opt->samples > 1000000)
+            throw CliError("eval: --samples " + std::to_string(opt->samples) + ": must be in [1, 1000000]");
+        if (opt->threads < 0) throw CliError("eval: --threads must be >= 0");
+        const std::vector<double> wavelengths = parse_wavelength_list(opt->wavelengths);
+        EvalSettings settings;
+        settings.view_samples = opt->samples;
+        settings.chapman = opt->reference ? ChapmanMethod::exact : *method;
+        settings.sun_disc = opt->sun_disc;
+        settings.ground = !opt->no_ground;
+        Atmosphere atm = compile_atmosphere(scene, wavelengths, settings);
+        if (opt->solar_irradiance) {
+            if (!(std::isfinite(*opt->solar_irradiance) && *opt->solar_irradiance >= 0.0))
+                throw CliError("eval: --solar-irradiance " + format_g17(*opt->solar_irradiance) +
+                               ": must be finite and >= 0");
+            set_constant_irradiance(atm, *opt->solar_irradiance);
+        }
+
+        const auto rows = read_numeric_rows(std::cin, {"altitude_m", "view_zenith_deg", "sun_zenith_deg", "azimuth_deg"});
+        for (const auto& r : rows) check_row(r);
+
+        const std::size_t nw = wavelengths.size();
+        std::vector<double> T(rows.size() * nw), R(rows.size() * nw), M(rows.size() * nw), L(rows.size() * nw);
+        const auto evaluate = [&](std::size_t k) {
+            const auto& v = rows[k].values;
+            const ViewRay ray{v[0], direction_from_zenith_azimuth_deg<double>(v[1], 0.0),
+                              direction_from_zenith_azimuth_deg<double>(v[2], v[3])};
+            const RadianceOut out{std::span(T).subspan(k * nw, nw), std::span(R).subspan(k * nw, nw),
+                                  std::span(M).subspan(k * nw, nw), std::span(L).subspan(k * nw, nw)};
+            if (opt->reference) single_scattering_reference(scene, atm, ray, out);
+            else single_scattering(atm, ray, out);
+        };
+        {
+            std::optional<tbb::global_control> limit;
+            if (opt->threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, opt->threads);
+            tbb::parallel_for(std::size_t(0), rows.size(), evaluate);
+        }
+
+        std::string out =
+            "altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg,wavelength_nm,transmittance,radiance_rayleigh,"
+            "radiance_mie,radiance\n";
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            const auto& v = rows[k].values;
+            const std::string geometry =
+                format_g17(v[0]) + "," + format_g17(v[1]) + "," + format_g17(v[2]) + "," + format_g17(v[3]) + ",";
+            for (std::size_t w = 0; w < nw; ++w) {
+                const std::size_t i = k * nw + w;
+                out += geometry + format_g17(wavelengths[w]) + "," + format_g17(T[i]) + "," + format_g17(R[i]) + "," +
+                       format_g17(M[i]) + "," + format_g17(L[i]) + "\n";
+            }
+        }
+        std::fwrite(out.data(), 1, out.size(), stdout);
+    });
+}
 
 }  // namespace airmass::cli

@@ -1,0 +1,78 @@
+// Optical depth and transmittance along straight rays (Golubev 2019 Eq. 4–5, 37).
+//
+// The *mass* of a profile along a segment is ∫ rho ds (metres at density 1); the
+// optical depth at a wavelength is Σ_i σt_i(λ) · mass_i, and T = exp(−τ).
+//
+// Exponential profiles use the Chapman family through Eq. 37 — a segment is the
+// difference of two semi-infinite rays — written so that only upper-hemisphere
+// (cos chi ≥ 0) Chapman values are ever subtracted: a segment below the periapsis is
+// evaluated reversed (τ(a→b) = τ(b→a), Golubev's trick), one that contains the
+// periapsis is split there. When the difference would cancel (the segment holds less
+// than a quarter of the first term's mass), the segment is integrated instead by
+// 16-point Gauss–Legendre, which is exact to rounding there because the density varies
+// by less than ~30 % along it.
+// Piecewise-linear profiles are integrated in closed form, piece by piece, between the
+// ray's crossings of the knot spheres (∫ sqrt(p² + s²) ds).
+// The ground is opaque: a segment that passes below the surface has infinite optical
+// depth (T = 0).
+#pragma once
+
+#include <span>
+
+#include "airmass/atmosphere.hpp"
+#include "airmass/geometry.hpp"
+
+namespace airmass {
+
+// ---- one exponential layer (float and double) -----------------------------------
+
+// Mass of rho(h) = exp(−(h − h_ref)/H) along the semi-infinite ray from altitude h in
+// direction chi (no top, no ground): H · Ch_h((R + h_ref)/H, (h − h_ref)/H, chi).
+template <class T>
+T exponential_ray_mass(ChapmanMethod method, T planet_radius_m, T scale_height_m, T reference_altitude_m,
+                       T altitude_m, ZenithAngle<T> chi);
+
+// Mass along the segment t ∈ [t0, t1] of `ray` (t1 may be +inf), no top, no ground.
+template <class T>
+T exponential_segment_mass(ChapmanMethod method, const PlanetRay<T>& ray, T scale_height_m,
+                           T reference_altitude_m, T t0_m, T t1_m);
+
+// ---- any compiled profile (double) -------------------------------------------------
+
+// Mass of `profile` along t ∈ [t0, t1] of `ray`, with the density set to zero above
+// `top_altitude_m` and no ground test (the caller clips). t1 may be +inf.
+double profile_segment_mass(const CompiledProfile& profile, ChapmanMethod method, const PlanetRay<double>& ray,
+                            double top_altitude_m, double t0_m, double t1_m);
+
+// ∫_{s0}^{s1} sqrt(p² + s²) ds for 0 ≤ s0 ≤ s1, without cancellation (closed form).
+double integral_of_radius(double p_m, double s0_m, double s1_m);
+
+// ---- a whole atmosphere (double) ----------------------------------------------------
+
+// Per-constituent masses along t ∈ [t0, t1] (t1 may be +inf: to the top of the
+// atmosphere). `mass.size()` = atmosphere.constituents.size(). Returns false (and
+// fills +inf) when the segment passes below the ground.
+bool constituent_masses(const Atmosphere& atmosphere, const PlanetRay<double>& ray, double t0_m, double t1_m,
+                        std::span<double> mass);
+
+// τ(λ) along t ∈ [t0, t1]; tau.size() = wavelength_count(). +inf through the ground.
+void optical_depth(const Atmosphere& atmosphere, const PlanetRay<double>& ray, double t0_m, double t1_m,
+                   std::span<double> tau);
+
+// T(λ) = exp(−τ(λ)).
+void transmittance(const Atmosphere& atmosphere, const PlanetRay<double>& ray, double t0_m, double t1_m,
+                   std::span<double> transmittance_out);
+
+// Between two planet-centred points (metres).
+void transmittance_between(const Atmosphere& atmosphere, Vec3<double> from_m, Vec3<double> to_m,
+                           std::span<double> transmittance_out);
+
+// ---- brute-force reference (tests) ----------------------------------------------------
+
+// The same masses by adaptive quadrature (Boost tanh-sinh, relative tolerance `rel_tol`)
+// of DensityProfile::at along the segment, split at the periapsis, the top and every
+// profile knot; independent of the Chapman and closed-form paths.
+double profile_segment_mass_reference(const DensityProfile& profile, const PlanetRay<double>& ray,
+                                      double top_altitude_m, double t0_m, double t1_m, double rel_tol = 1e-12);
+
+}  // namespace airmass

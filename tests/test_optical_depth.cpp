@@ -1,0 +1,332 @@
+// Optical depth along rays (optical_depth.hpp) against brute-force adaptive quadrature of
+// the scene's own DensityProfile::at (profile_segment_mass_reference, long-double
+// geometry), and against the mpmath table tests/data/optical_depth_reference.csv
+// (scripts/gen_optical_depth_reference.py, 30 digits, independent of this code).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "airmass/optical_depth.hpp"
+
+namespace airmass {
+namespace {
+
+constexpr double kR = 6360e3;
+constexpr double kTop = 60e3;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+PlanetRay<double> ray_deg(double h0, double zenith_deg) {
+    return {kR, h0, ZenithAngle<double>::from_degrees(zenith_deg)};
+}
+
+// Zenith angle (deg) of the ray from altitude h0 whose periapsis is at altitude hp.
+double zenith_for_periapsis(double h0, double hp) {
+    return 180.0 - std::asin((kR + hp) / (kR + h0)) * 180.0 / M_PI;
+}
+
+DensityProfile exponential(double H, double h_ref = 0.0) {
+    DensityProfile p;
+    p.kind = DensityProfile::Kind::exponential;
+    p.scale_height_m = H;
+    p.reference_altitude_m = h_ref;
+    return p;
+}
+
+DensityProfile tent(double b, double peak, double t) {
+    DensityProfile p;
+    p.kind = DensityProfile::Kind::tent;
+    p.bottom_m = b;
+    p.peak_m = peak;
+    p.top_m = t;
+    return p;
+}
+
+struct Segment {
+    const char* what;
+    PlanetRay<double> ray;
+    double t0, t1;
+};
+
+// The geometries the brief names: zenith, horizontal, grazing, below the horizon to the
+// ground, from space through the limb, finite segments on either side of the periapsis,
+// a segment across it, short segments.
+std::vector<Segment> segments(double H) {
+    std::vector<Segment> s;
+    s.push_back({"zenith from the ground", ray_deg(0.0, 0.0), 0.0, kInf});
+    s.push_back({"horizontal from the ground", ray_deg(0.0, 90.0), 0.0, kInf});
+    s.push_back({"horizontal from 5 km", ray_deg(5e3, 90.0), 0.0, kInf});
+    const auto graze = ray_deg(10e3, zenith_for_periapsis(10e3, 100.0));
+    s.push_back({"grazing, periapsis 100 m up", graze, 0.0, kInf});
+    const auto below = ray_deg(10e3, 95.0);
+    s.push_back({"below the horizon to the ground", below, 0.0, ground_distance_m(below)});
+    const auto down = ray_deg(2e3, 180.0);
+    s.push_back({"straight down to the ground", down, 0.0, ground_distance_m(down)});
+    const auto limb = ray_deg(1e6, zenith_for_periapsis(1e6, 20e3));
+    const double tp = -limb.periapsis_offset_m();
+    s.push_back({"from 1000 km through the limb", limb, intersect_sphere(limb, 50.0 * H).t_near, kInf});
+    s.push_back({"segment descending to the periapsis", limb, tp - 300e3, tp - 1e3});
+    s.push_back({"segment across the periapsis", limb, tp - 50e3, tp + 80e3});
+    s.push_back({"short segment at the periapsis", limb, tp - 10.0, tp + 10.0});
+    s.push_back({"short segment, slant", ray_deg(3e3, 60.0), 100.0, 101.0});
+    s.push_back({"segment above the periapsis", ray_deg(5e3, 80.0), 1e3, 50e3});
+    return s;
+}
+
+// exponential_segment_mass with the exact Chapman method vs quadrature, ≤ 1e-6 relative
+// (observed ~1e-12: the only error sources are the quadratures).
+TEST(OpticalDepth, ExponentialSegmentsMatchQuadrature) {
+    for (double H : {8000.0, 1200.0, 10.0, 1e6}) {
+        for (const auto& seg : segments(H)) {
+            const double got = exponential_segment_mass(ChapmanMethod::exact, seg.ray, H, 0.0, seg.t0, seg.t1);
+            // no top: integrate to where the density is e^-50 of the origin's
+            const double top = seg.ray.altitude_m + 50.0 * H;
+            const double ref = profile_segment_mass_reference(exponential(H), seg.ray, top, seg.t0, seg.t1, 1e-13);
+            ASSERT_TRUE(std::isfinite(got)) << seg.what << " H=" << H;
+            if (ref < 1e-290) {  // e.g. H = 10 m at 20 km: both underflow
+                EXPECT_LT(got, 1e-280) << seg.what << " H=" << H;
+                continue;
+            }
+            EXPECT_NEAR(got / ref, 1.0, 1e-6) << seg.what << " H=" << H << " got " << got << " ref " << ref;
+        }
+    }
+}
+
+// Every Chapman method gives finite, non-negative masses on the same segments, within its
+// own accuracy of the exact one (the short-segment fallback keeps even the crude methods
+// meaningful where a difference would cancel).
+TEST(OpticalDepth, EveryMethodIsFiniteAndClose) {
+    for (const auto& m : chapman_methods()) {
+        // the published approximations are 10–30 % off near the horizon (their reports)
+        const double tol = m.method == ChapmanMethod::airmass ? 1e-5 : 0.5;
+        for (const auto& seg : segments(8000.0)) {
+            const double got = exponential_segment_mass(m.method, seg.ray, 8000.0, 0.0, seg.t0, seg.t1);
+            const double ref = exponential_segment_mass(ChapmanMethod::exact, seg.ray, 8000.0, 0.0, seg.t0, seg.t1);
+            ASSERT_TRUE(std::isfinite(got) && got >= 0.0) << m.name << " " << seg.what;
+            EXPECT_NEAR(got / ref, 1.0, tol) << m.name << " " << seg.what;
+        }
+    }
+}
+
+TEST(OpticalDepth, FloatExponentialIsFiniteAndClose) {
+    for (const auto& seg : segments(8000.0)) {
+        const PlanetRay<float> rf{float(kR), float(seg.ray.altitude_m),
+                                  {float(seg.ray.zenith.cos_chi), float(seg.ray.zenith.sin_chi)}};
+        const float got = exponential_segment_mass<float>(ChapmanMethod::airmass, rf, 8000.0f, 0.0f, float(seg.t0),
+                                                          float(seg.t1));
+        const double ref = exponential_segment_mass(ChapmanMethod::exact, seg.ray, 8000.0, 0.0, seg.t0, seg.t1);
+        ASSERT_TRUE(std::isfinite(got) && got >= 0.0f) << seg.what;
+        // float positions carry ~0.4 m at planet scale: 1e-3 relative except the 1 m segment
+        const double tol = seg.t1 - seg.t0 < 100.0 ? 0.5 : 1e-3;
+        EXPECT_NEAR(got / ref, 1.0, tol) << seg.what;
+    }
+}
+
+TEST(OpticalDepth, IntegralOfRadiusClosedForm) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    for (int k = 0; k < 2000; ++k) {
+        const double p = k % 10 == 0 ? 0.0 : 7e6 * U(rng);
+        const double s0 = k % 7 == 0 ? 0.0 : 3e6 * U(rng) * U(rng);
+        const double s1 = s0 + 1e6 * U(rng) * U(rng) * U(rng);
+        // long-double closed form ½[s r + p² asinh(s/p)] evaluated naively, as reference
+        using LD = long double;
+        const auto F = [&](LD s) {
+            const LD r = std::sqrt(LD(p) * p + s * s);
+            return p > 0 ? 0.5L * (s * r + LD(p) * p * std::asinh(s / LD(p))) : 0.5L * s * s;
+        };
+        const LD ref = F(s1) - F(s0);
+        EXPECT_NEAR(integral_of_radius(p, s0, s1), double(ref), 1e-12 * double(ref) + 1e-6) << p << " " << s0;
+    }
+}
+
+// Piecewise-linear profiles (tent, constant, knots with a jump) in closed form vs quadrature.
+TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
+    std::vector<DensityProfile> profiles;
+    profiles.push_back(tent(10e3, 25e3, 40e3));
+    profiles.push_back(tent(0.0, 0.0, 3e3));  // a jump at the ground
+    DensityProfile c;
+    c.kind = DensityProfile::Kind::constant;
+    c.bottom_m = 1e3;
+    c.top_m = 2e3;
+    c.value = 0.5;
+    profiles.push_back(c);
+    DensityProfile k;
+    k.kind = DensityProfile::Kind::piecewise_linear;
+    k.knots = {{0.0, 2.0}, {1e3, 1.0}, {5e3, 1.5}, {20e3, 0.1}, {30e3, 0.3}};
+    profiles.push_back(k);
+
+    Scene scene;
+    scene.planet = {kR, kR + kTop, 0.1};
+    for (const auto& p : profiles) {
+        Constituent con;
+        con.name = "x";
+        con.profile = p;
+        con.absorption.value_per_m = 1e-6;
+        scene.constituents.push_back(con);
+    }
+    const double wl[] = {550.0};
+    const Atmosphere atm = compile_atmosphere(scene, wl);
+    ASSERT_EQ(atm.constituents.size(), profiles.size());
+    std::vector<Segment> segs = segments(8000.0);
+    segs.push_back({"ozone tangent", ray_deg(100e3, zenith_for_periapsis(100e3, 25e3)), 0.0, kInf});
+    segs.push_back({"ozone from below", ray_deg(0.0, 70.0), 0.0, kInf});
+    for (std::size_t i = 0; i < profiles.size(); ++i) {
+        for (const auto& seg : segs) {
+            const double got = profile_segment_mass(atm.constituents[i].profile, ChapmanMethod::exact, seg.ray, kTop,
+                                                    seg.t0, seg.t1);
+            const double ref = profile_segment_mass_reference(profiles[i], seg.ray, kTop, seg.t0, seg.t1, 1e-13);
+            ASSERT_TRUE(std::isfinite(got)) << i << " " << seg.what;
+            EXPECT_NEAR(got, ref, 1e-9 * ref + 1e-9) << "profile " << i << ": " << seg.what;
+        }
+    }
+}
+
+// An Earth-like scene built here (independent of the presets).
+Scene earth_like() {
+    Scene s;
+    s.planet = {kR, kR + kTop, 0.1};
+    Constituent ray;
+    ray.name = "rayleigh";
+    ray.profile = exponential(8000.0);
+    ray.scattering.law = SpectralCoefficient::Law::power_law;
+    ray.scattering.value_per_m = 1.24062e-6;
+    ray.scattering.reference_nm = 1000.0;
+    ray.scattering.exponent = 4.0;
+    ray.phase.kind = PhaseFunction::Kind::rayleigh;
+    Constituent mie;
+    mie.name = "mie";
+    mie.profile = exponential(1200.0);
+    mie.scattering.value_per_m = 3.996e-6;
+    mie.absorption.value_per_m = 4.44e-7;
+    mie.phase = {PhaseFunction::Kind::cornette_shanks, 0.8};
+    Constituent oz;
+    oz.name = "ozone";
+    oz.profile = tent(10e3, 25e3, 40e3);
+    oz.absorption.law = SpectralCoefficient::Law::table;
+    oz.absorption.table = {{440.0, 8.5e-8}, {550.0, 1.88e-6}, {680.0, 6.5e-7}};
+    s.constituents = {ray, mie, oz};
+    return s;
+}
+
+TEST(OpticalDepth, AtmosphereMassesMatchQuadratureToTheTop) {
+    const Scene scene = earth_like();
+    const double wl[] = {680.0, 550.0, 440.0};
+    EvalSettings es;
+    es.chapman = ChapmanMethod::exact;
+    const Atmosphere atm = compile_atmosphere(scene, wl, es);
+    ASSERT_EQ(atm.constituents.size(), 3u);
+    EXPECT_TRUE(atm.constituents[0].profile.truncate_at_top);   // Rayleigh: e^-7.5 at the top matters
+    EXPECT_FALSE(atm.constituents[1].profile.truncate_at_top);  // Mie: e^-50 does not
+    for (const auto& seg : segments(8000.0)) {
+        double m[kMaxConstituents];
+        const bool open = constituent_masses(atm, seg.ray, seg.t0, seg.t1, std::span<double>(m, 3));
+        ASSERT_TRUE(open) << seg.what;
+        for (std::size_t i = 0; i < 3; ++i) {
+            const double ref =
+                profile_segment_mass_reference(scene.constituents[i].profile, seg.ray, kTop, seg.t0, seg.t1, 1e-13);
+            EXPECT_NEAR(m[i], ref, 1e-6 * ref + 1e-12) << seg.what << " constituent " << i;
+        }
+    }
+}
+
+TEST(OpticalDepth, TransmittanceIdentities) {
+    const Scene scene = earth_like();
+    const double wl[] = {680.0, 550.0, 440.0};
+    for (ChapmanMethod method : {ChapmanMethod::exact, ChapmanMethod::airmass}) {
+        EvalSettings es;
+        es.chapman = method;
+        const Atmosphere atm = compile_atmosphere(scene, wl, es);
+        const double tol = method == ChapmanMethod::exact ? 1e-10 : 1e-5;
+        std::mt19937 rng(11);
+        std::uniform_real_distribution<double> U(-1.0, 1.0);
+        int tested = 0;
+        for (int k = 0; k < 300; ++k) {
+            // three points inside the shell, a and c up to 400 km apart, b between them
+            const Vec3<double> a(0.0, 0.0, kR + 30e3 * (U(rng) + 1.0));
+            const Vec3<double> c = a + Vec3<double>(200e3 * U(rng), 200e3 * U(rng), 30e3 * U(rng));
+            const double f = 0.5 * (U(rng) + 1.0);
+            const Vec3<double> b = a + f * (c - a);
+            double tab[3], tbc[3], tac[3], tba[3];
+            transmittance_between(atm, a, b, tab);
+            transmittance_between(atm, b, c, tbc);
+            transmittance_between(atm, a, c, tac);
+            transmittance_between(atm, b, a, tba);
+            for (int w = 0; w < 3; ++w) {
+                ASSERT_TRUE(tab[w] >= 0.0 && tab[w] <= 1.0);
+                if (tac[w] == 0.0) continue;  // through the ground
+                EXPECT_NEAR(tab[w] * tbc[w] / tac[w], 1.0, tol) << k;
+                EXPECT_NEAR(tab[w] / tba[w], 1.0, tol) << k;
+                ++tested;
+            }
+        }
+        EXPECT_GT(tested, 300);
+    }
+}
+
+TEST(OpticalDepth, GroundIsOpaque) {
+    const Atmosphere atm = compile_atmosphere(earth_like(), std::vector<double>{550.0});
+    double T[1];
+    // two points on opposite sides of the planet, and a ray from space through it
+    transmittance_between(atm, {0.0, 0.0, kR + 1e3}, {0.0, 0.0, -(kR + 1e3)}, T);
+    EXPECT_EQ(T[0], 0.0);
+    transmittance(atm, ray_deg(1e6, 180.0), 0.0, kInf, T);
+    EXPECT_EQ(T[0], 0.0);
+    // but a segment that ends exactly on the ground is not blocked
+    const auto down = ray_deg(1e3, 180.0);
+    transmittance(atm, down, 0.0, ground_distance_m(down), T);
+    EXPECT_GT(T[0], 0.9);
+}
+
+TEST(OpticalDepth, ExtremesAreFinite) {
+    const Atmosphere atm = compile_atmosphere(earth_like(), std::vector<double>{440.0});
+    for (double h0 : {0.0, 1.0, 30e3, kTop, kTop + 1.0, 1e6, 1e8}) {
+        for (double zen : {0.0, 1e-6, 45.0, 89.999, 90.0, 90.001, 91.0, 100.0, 135.0, 179.999, 180.0}) {
+            double tau[1];
+            optical_depth(atm, ray_deg(h0, zen), 0.0, kInf, tau);
+            EXPECT_FALSE(std::isnan(tau[0])) << h0 << " " << zen;
+            EXPECT_GE(tau[0], 0.0);
+        }
+    }
+}
+
+// The mpmath table: optical depths to 30 digits along rays of the Earth-like atmosphere
+// (generated by scripts/gen_optical_depth_reference.py, which integrates the densities
+// with mpmath.quad in its own geometry).
+TEST(OpticalDepth, MatchesMpmathTable) {
+    std::ifstream in(std::string(AIRMASS_TEST_DATA_DIR) + "/optical_depth_reference.csv");
+    ASSERT_TRUE(in) << "tests/data/optical_depth_reference.csv missing";
+    std::string line;
+    std::getline(in, line);  // header
+    EvalSettings es;
+    es.chapman = ChapmanMethod::exact;
+    const Scene scene = earth_like();
+    int rows = 0;
+    while (std::getline(in, line)) {
+        if (line.empty() || line[0] == '#') continue;
+        std::stringstream ss(line);
+        std::string f;
+        std::vector<double> v;
+        while (std::getline(ss, f, ',')) v.push_back(std::stod(f));
+        ASSERT_EQ(v.size(), 7u) << line;
+        // altitude_m, zenith_deg, t0_m, t1_m (-1: to the top), mass_rayleigh, mass_mie, mass_ozone
+        const auto ray = ray_deg(v[0], v[1]);
+        const double t1 = v[3] < 0 ? kInf : v[3];
+        const double wl[] = {550.0};
+        const Atmosphere atm = compile_atmosphere(scene, wl, es);
+        for (std::size_t i = 0; i < 3; ++i) {
+            const double got = profile_segment_mass(atm.constituents[i].profile, es.chapman, ray, kTop, v[2], t1);
+            EXPECT_NEAR(got, v[4 + i], 1e-9 * v[4 + i] + 1e-12) << line << " constituent " << i;
+        }
+        ++rows;
+    }
+    EXPECT_GE(rows, 10);
+}
+
+}  // namespace
+}  // namespace airmass
