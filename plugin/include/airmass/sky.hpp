@@ -1,0 +1,130 @@
+// Sky textures: the single-scattering sky seen by an observer, as an equirectangular
+// image in Blender's convention, in the colour units of Blender's Nishita sky texture.
+//
+// Image convention (Blender/Cycles "Environment Texture", equirectangular; verified in
+// docs/research and /work/shared/notes/renderer-facts.md): Z up, image centre = +X, a
+// quarter from the left = +Y, −X at the seam, top row = zenith. Cycles maps a direction
+// d to texture coordinates (v = 0 at the bottom row, v = 1 at the top)
+//
+//     u = (atan2(d.y, d.x) − π) / (−2π),        v = (acos(d.z) − π) / (−π),
+//
+// so the inverse used for pixel (x, y), y = 0 the top row, at its centre is
+//
+//     φ = π − 2π (x + ½)/W,   θ = π (y + ½)/H,   d = (sin θ cos φ, sin θ sin φ, cos θ).
+//
+// Sun direction (Blender Sky Texture "Sun Elevation" e and "Sun Rotation" r):
+// s = (cos e sin r, cos e cos r, sin e) — rotation 0° points the sun toward +Y,
+// 90° toward +X — so users type the same numbers as in Blender.
+//
+// Radiance and colour: per wavelength, L(λ) = in-scatter along the view ray (single
+// scattering of sunlight, planet shadow included) + the ground (Lambertian, albedo
+// from the scene, lit by the attenuated sun) seen through the view transmittance + the
+// sun disc (E(λ)·T(λ)/Ω_sun, uniform disc, box-filtered into pixels so its total
+// irradiance is right at any resolution). The spectrum goes to linear Rec.709 by the
+// scene's basis (color.hpp): XYZ = Σ L(λ)·CMF(λ)·Δλ (CIE 1931 2°, no 683 lm/W), then
+// XYZ(D65) → linear Rec.709 — the units of Blender's Nishita texture, so swapping one
+// for the other keeps the exposure. With the rgb-schuler basis, L at 615/535/445 nm
+// goes through Schüler's matrix instead.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "airmass/chapman.hpp"
+#include "airmass/image_io.hpp"
+#include "airmass/progress.hpp"
+#include "airmass/scene.hpp"
+
+namespace airmass {
+
+// ---- Equirectangular mapping (Blender/Cycles convention) -------------------------------
+
+// Cycles' direction_to_equirectangular: unit direction → (u, v) ∈ [0, 1]², v = 1 up.
+glm::dvec2 equirect_uv_from_direction(const glm::dvec3& direction);
+// Its inverse: (u, v) → unit direction.
+glm::dvec3 equirect_direction_from_uv(const glm::dvec2& uv);
+// Direction through the centre of pixel (x, y) of a width × height image, y = 0 top row.
+glm::dvec3 equirect_pixel_direction(int x, int y, int width, int height);
+// Continuous pixel coordinates of a direction: pixel (x, y)'s centre is (x + ½, y + ½).
+glm::dvec2 equirect_pixel_from_direction(const glm::dvec3& direction, int width, int height);
+// Solid angle of a pixel in row y, steradians: (2π/W)·(cos θ_top − cos θ_bottom).
+double equirect_pixel_solid_angle(int y, int width, int height);
+
+// Unit vector toward the sun from Blender Sky Texture angles (see the header comment).
+glm::dvec3 sun_direction(double elevation_deg, double rotation_deg);
+
+// ---- Rendering -----------------------------------------------------------------------
+
+// Every problem with sky settings: the message names the field, value and allowed range.
+struct SkyError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+enum class SkyRegion {
+    full,   // the whole sphere: sky, ground / planet, limb
+    upper,  // only rows whose centre is at or above the horizon are computed; the others are 0
+};
+
+struct SkySettings {
+    int width = 2048;   // pixels over 360°
+    int height = 1024;  // pixels over 180° (width/2 keeps pixels square)
+    SkyRegion region = SkyRegion::full;
+    int view_samples = 16;                          // samples along each view ray
+    ChapmanMethod chapman = ChapmanMethod::airmass; // optical depth toward the sun
+    bool sun_disc = true;
+    int threads = 0;  // 0: all hardware threads
+    // Sky grid (Blender's precomputed-texture idea, with its error measured by
+    // `airmass report sky`): evaluate the sky on a grid over (view zenith angle, azimuth
+    // from the sun) and interpolate every pixel bilinearly from it. By mirror symmetry the
+    // azimuth spans [0°, 180°] in `grid` intervals; the zenith angle has two pieces split
+    // exactly at the horizon (sky / ground, never interpolated across), each grid/2
+    // intervals, denser toward the horizon. 0: evaluate every pixel. −1 (auto): the grid
+    // of kSkyDefaultGrid when it needs fewer rays than the image, else every pixel.
+    int grid = -1;
+};
+
+inline constexpr int kSkyDefaultGrid = 256;
+inline constexpr int kSkyMaxGrid = 16384;
+
+// Limits checked by validate(SkySettings).
+inline constexpr int kSkyMaxDimension = 65536;
+inline constexpr int kSkyMaxViewSamples = 65536;
+
+void validate(const SkySettings& settings);  // throws SkyError
+
+// Optional hooks for long renders: `work_done(units, total)` is called from worker threads
+// as pieces of work finish (grid rows, image rows; `total` is the same on every call);
+// `cancel` is polled once per row, and a requested cancel makes render_sky throw
+// Cancelled after the workers stop — before anything is returned or written.
+struct RenderHooks {
+    const CancelFlag* cancel = nullptr;
+    std::function<void(std::size_t units, std::size_t total)> work_done;
+};
+
+// The grid intervals a render will use (settings.grid resolved: 0 = every pixel).
+int effective_sky_grid(const Scene& scene, const SkySettings& settings);
+
+// Renders the sky of `scene` (validated here) into a linear Rec.709 RGB image.
+FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {});
+
+// Linear Rec.709 radiance of one direction (sun disc as a point-sampled uniform disc);
+// for tests and reports. `direction` need not be unit.
+glm::dvec3 sky_radiance_rgb(const Scene& scene, const SkySettings& settings, const glm::dvec3& direction);
+// The same for many directions (one atmosphere set-up; parallel).
+std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
+                                         std::span<const glm::dvec3> directions);
+
+// EXR metadata for a sky: "airmass:scene" (scene_to_json), "airmass:settings" (JSON of
+// the settings and derived quantities: sun direction, wavelengths, units),
+// "airmass:version", "airmass:convention", and "airmass:units".
+ImageMetadata sky_metadata(const Scene& scene, const SkySettings& settings);
+std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings);
+
+}  // namespace airmass

@@ -1,0 +1,535 @@
+// Sky textures: equirectangular mapping, the parallel per-row render, the box-filtered
+// sun disc and the EXR metadata (see sky.hpp for the conventions).
+#include "airmass/sky.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <new>
+#include <numbers>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "airmass/atmosphere.hpp"
+#include "airmass/color.hpp"
+#include "airmass/geometry.hpp"
+#include "airmass/optical_depth.hpp"
+#include "airmass/scene_io.hpp"
+#include "airmass/single_scattering.hpp"
+
+#ifndef AIRMASS_VERSION_STRING
+#define AIRMASS_VERSION_STRING "unknown"
+#endif
+
+namespace airmass {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// cos and sin of an angle in degrees, exact at multiples of 90° (cos 90° = 0, not 6e-17),
+// so a sun at elevation 90° is exactly (0, 0, 1) and at 0° exactly on the horizon.
+void cos_sin_deg(double deg, double& c, double& s) {
+    double r = std::fmod(deg, 360.0);
+    if (r < 0) r += 360.0;
+    const int quadrant = static_cast<int>(std::lround(r / 90.0)) % 4;
+    const double d = (r - 90.0 * std::lround(r / 90.0)) * (kPi / 180.0);  // in [−45°, 45°], exact subtraction
+    const double cd = std::cos(d), sd = std::sin(d);
+    switch (quadrant) {
+        case 0: c = cd, s = sd; break;
+        case 1: c = -sd, s = cd; break;
+        case 2: c = -cd, s = -sd; break;
+        default: c = sd, s = -cd; break;
+    }
+}
+
+}  // namespace
+
+// ---- mapping -------------------------------------------------------------------------
+
+glm::dvec2 equirect_uv_from_direction(const glm::dvec3& d) {
+    // Cycles (kernel/geom/... direction_to_equirectangular_range with the default range
+    // (−2π, π, −π, π/2)): u = (atan2(y, x) − π)/(−2π), v = (acos(z/|d|) − π)/(−π).
+    const double len = glm::length(d);
+    const double z = std::clamp(d.z / len, -1.0, 1.0);
+    return {(std::atan2(d.y, d.x) - kPi) / (-kTwoPi), (std::acos(z) - kPi) / (-kPi)};
+}
+
+glm::dvec3 equirect_direction_from_uv(const glm::dvec2& uv) {
+    const double phi = kPi - kTwoPi * uv.x;  // atan2(y, x)
+    const double theta = kPi - kPi * uv.y;   // acos(z): 0 at the top (v = 1)
+    const double st = std::sin(theta);
+    return {st * std::cos(phi), st * std::sin(phi), std::cos(theta)};
+}
+
+glm::dvec3 equirect_pixel_direction(int x, int y, int width, int height) {
+    // Row y = 0 is the top of the image, i.e. v = 1 − (y + ½)/H.
+    return equirect_direction_from_uv({(x + 0.5) / width, 1.0 - (y + 0.5) / height});
+}
+
+glm::dvec2 equirect_pixel_from_direction(const glm::dvec3& d, int width, int height) {
+    const glm::dvec2 uv = equirect_uv_from_direction(d);
+    return {uv.x * width, (1.0 - uv.y) * height};
+}
+
+double equirect_pixel_solid_angle(int y, int width, int height) {
+    const double theta0 = kPi * y / height, theta1 = kPi * (y + 1) / height;
+    // cos θ0 − cos θ1 = 2 sin((θ0+θ1)/2) sin((θ1−θ0)/2), without cancellation near the poles.
+    return (kTwoPi / width) * 2.0 * std::sin(0.5 * (theta0 + theta1)) * std::sin(0.5 * (theta1 - theta0));
+}
+
+glm::dvec3 sun_direction(double elevation_deg, double rotation_deg) {
+    // Blender's kernel: geographical_to_direction(e, 2π − r + π/2) = (cos e sin r, cos e cos r, sin e).
+    double ce, se, cr, sr;
+    cos_sin_deg(elevation_deg, ce, se);
+    cos_sin_deg(rotation_deg, cr, sr);
+    return {ce * sr, ce * cr, se};
+}
+
+// ---- settings ------------------------------------------------------------------------
+
+void validate(const SkySettings& s) {
+    auto range = [](const char* field, long long v, long long lo, long long hi) {
+        if (v < lo || v > hi)
+            throw SkyError(std::string(field) + " = " + std::to_string(v) + ": must be in [" + std::to_string(lo) +
+                           ", " + std::to_string(hi) + "]");
+    };
+    range("width", s.width, 4, kSkyMaxDimension);
+    range("height", s.height, 2, kSkyMaxDimension);
+    range("samples", s.view_samples, 1, kSkyMaxViewSamples);
+    range("threads", s.threads, 0, 4096);
+    range("grid", s.grid, -1, kSkyMaxGrid);
+    if (s.grid > 0 && s.grid < 4) throw SkyError("grid = " + std::to_string(s.grid) + ": must be -1 (auto), 0 (off) or in [4, " + std::to_string(kSkyMaxGrid) + "]");
+    if (double(s.width) * s.height > 1.0e9)
+        throw SkyError("width x height = " + std::to_string(s.width) + " x " + std::to_string(s.height) +
+                       ": must be at most 1e9 pixels");
+}
+
+namespace {
+
+// Everything a render needs, prepared once.
+struct SkyContext {
+    Atmosphere atmosphere;
+    SpectrumToRgb to_rgb;  // restricted to the wavelengths the atmosphere evaluates
+    glm::dvec3 sun;
+    double altitude_m;
+};
+
+SkyContext prepare(const Scene& scene, const SkySettings& settings) {
+    validate(scene);
+    validate(settings);
+    SkyContext ctx;
+    SpectrumToRgb full = spectrum_to_rgb(scene.basis);
+    if (full.size() == 0) throw SkyError("spectrum: the basis has no wavelengths");
+    // A scene pays only for what it uses: wavelengths whose colour weights are all zero
+    // (outside the CMF table) cannot change the image, so they are not evaluated.
+    for (std::size_t i = 0; i < full.size(); ++i) {
+        if (full.matrix[0][i] == 0.0 && full.matrix[1][i] == 0.0 && full.matrix[2][i] == 0.0) continue;
+        ctx.to_rgb.wavelengths_nm.push_back(full.wavelengths_nm[i]);
+        for (int c = 0; c < 3; ++c) ctx.to_rgb.matrix[c].push_back(full.matrix[c][i]);
+    }
+    if (ctx.to_rgb.size() == 0) throw SkyError("spectrum: no wavelength of the basis lies inside 360-830 nm");
+    EvalSettings eval;
+    eval.chapman = settings.chapman;
+    eval.view_samples = settings.view_samples;
+    eval.sun_disc = false;  // added below, box-filtered into pixels
+    eval.ground = true;
+    ctx.atmosphere = compile_atmosphere(scene, ctx.to_rgb.wavelengths_nm, eval);
+    ctx.sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+    ctx.altitude_m = scene.observer.altitude_m;
+    return ctx;
+}
+
+// Linear Rec.709 from a spectrum, clamped at 0 like Cycles' xyz_to_rgb_clamped: saturated
+// twilight blues fall outside the Rec.709 gamut, and a negative radiance is not an image.
+void store_rgb(const SpectrumToRgb& to_rgb, std::span<const double> radiance, float* px) {
+    const Vec3d rgb = to_rgb.apply(radiance);
+    for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(std::max(rgb[c], 0.0));
+}
+
+// The sky is mirror-symmetric about the vertical plane through the sun (the observer is on
+// the symmetry axis of a spherically symmetric atmosphere). When that plane maps pixel
+// centres onto pixel centres — the sun's u·W is a multiple of ½, e.g. rotation 0° or 90°
+// with W divisible by 4 — column x equals column (k − 1 − x) mod W, k = 2·u_sun·W, and only
+// half the columns are computed. Returns k, or −1 when the grid is not symmetric.
+long mirror_key(const glm::dvec3& sun, int width) {
+    if (std::hypot(sun.x, sun.y) < 1e-12) return -1;  // sun at the zenith/nadir: every column is
+                                                      // a mirror plane, but keep it simple
+    const double k = 2.0 * equirect_uv_from_direction(sun).x * width;
+    const double kr = std::round(k);
+    if (std::abs(k - kr) > 1e-9 * width) return -1;
+    long key = static_cast<long>(kr) % width;
+    return key < 0 ? key + width : key;
+}
+
+// Adds the sun disc (uniform radiance E_sun/Ω_sun times the view transmittance) to `image`,
+// box-filtered: N points spread uniformly over the disc's solid angle (a sunflower spiral)
+// each carry E·T/N of irradiance into the pixel they fall in, divided by that pixel's solid
+// angle. The total Σ L·Ω_pixel equals the disc's transmitted irradiance at any resolution.
+void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage& image) {
+    const Atmosphere& atm = ctx.atmosphere;
+    const double alpha = atm.sun_angular_radius_rad;
+    if (!(alpha > 0.0)) return;
+    const std::size_t nw = atm.wavelength_count();
+    const double cos_alpha = std::cos(alpha);
+    const double one_minus_cos = 2.0 * std::sin(0.5 * alpha) * std::sin(0.5 * alpha);  // 1 − cos α
+    const double disc_solid_angle = kTwoPi * one_minus_cos;
+    // Enough points for ≥ 64 per covered pixel, and at least 4096.
+    const double pixel_solid_angle_est = (kTwoPi / settings.width) * (kPi / settings.height);
+    const std::size_t n_points =
+        std::clamp<std::size_t>(std::size_t(64.0 * disc_solid_angle / pixel_solid_angle_est), 4096, 1u << 22);
+
+    // The view transmittance depends only on the zenith angle of the direction (spherical
+    // symmetry about the observer's vertical): tabulate it across the disc and interpolate.
+    const glm::dvec3 s = ctx.sun;
+    const double theta_sun = std::acos(std::clamp(s.z, -1.0, 1.0));
+    const double th_lo = std::max(0.0, theta_sun - alpha), th_hi = std::min(kPi, theta_sun + alpha);
+    constexpr int kTable = 257;
+    std::vector<double> t_table(kTable * nw);
+    for (int k = 0; k < kTable; ++k) {
+        const double th = th_lo + (th_hi - th_lo) * k / (kTable - 1);
+        const auto ray = PlanetRay<double>::from_vectors(
+            atm.planet_radius_m, Vec3<double>(0.0, 0.0, atm.planet_radius_m + ctx.altitude_m),
+            Vec3<double>(std::sin(th), 0.0, std::cos(th)));
+        std::span<double> t(t_table.data() + k * nw, nw);
+        if (hits_ground(ray)) std::fill(t.begin(), t.end(), 0.0);
+        else transmittance(atm, ray, 0.0, std::numeric_limits<double>::infinity(), t);
+    }
+
+    // Orthonormal frame around the sun direction.
+    const glm::dvec3 helper = std::abs(s.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0);
+    const glm::dvec3 e1 = glm::normalize(glm::cross(helper, s));
+    const glm::dvec3 e2 = glm::cross(s, e1);
+    const double golden = kPi * (3.0 - std::sqrt(5.0));
+    std::vector<double> radiance(nw);
+    std::map<std::size_t, Vec3d> disc;  // pixel index → the disc's RGB in it
+    for (std::size_t k = 0; k < n_points; ++k) {
+        // Uniform in solid angle over the cap: 1 − cos r is uniform in [0, 1 − cos α].
+        const double omc = one_minus_cos * (k + 0.5) / n_points;
+        const double cos_r = 1.0 - omc, sin_r = std::sqrt(std::max(0.0, omc * (2.0 - omc)));
+        const double az = golden * k;
+        const glm::dvec3 d = cos_r * s + sin_r * (std::cos(az) * e1 + std::sin(az) * e2);
+        if (glm::dot(d, s) < cos_alpha - 1e-15) continue;
+        const double th = std::acos(std::clamp(d.z, -1.0, 1.0));
+        // The ground blocks the disc exactly where the geometry says, not where the table's
+        // interpolation would fade it.
+        const auto ray = PlanetRay<double>::from_vectors(
+            atm.planet_radius_m, Vec3<double>(0.0, 0.0, atm.planet_radius_m + ctx.altitude_m), Vec3<double>(d));
+        if (hits_ground(ray)) continue;
+        const glm::dvec2 p = equirect_pixel_from_direction(d, settings.width, settings.height);
+        int px = static_cast<int>(std::floor(p.x)), py = static_cast<int>(std::floor(p.y));
+        px = ((px % settings.width) + settings.width) % settings.width;
+        py = std::clamp(py, 0, settings.height - 1);
+        if (settings.region == SkyRegion::upper && 2 * py + 1 > settings.height) continue;
+        const double f = th_hi > th_lo ? std::clamp((th - th_lo) / (th_hi - th_lo), 0.0, 1.0) * (kTable - 1) : 0.0;
+        const int k0 = std::min(static_cast<int>(f), kTable - 2);
+        const double w = f - k0;
+        const double scale = 1.0 / (double(n_points) * equirect_pixel_solid_angle(py, settings.width, settings.height));
+        for (std::size_t i = 0; i < nw; ++i) {
+            const double t = (1.0 - w) * t_table[k0 * nw + i] + w * t_table[(k0 + 1) * nw + i];
+            radiance[i] = atm.sun_irradiance[i] * t * scale;
+        }
+        const Vec3d rgb = ctx.to_rgb.apply(radiance);
+        Vec3d& acc = disc[std::size_t(py) * settings.width + px];
+        for (int c = 0; c < 3; ++c) acc[c] += rgb[c];
+    }
+    // Added, then clamped once per pixel (a reddened disc may lie outside Rec.709, like the sky).
+    for (const auto& [index, rgb] : disc) {
+        float* out = image.pixels.data() + index * 3;
+        for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(std::max(0.0, double(out[c]) + rgb[c]));
+    }
+}
+
+}  // namespace
+
+namespace {
+
+// Zenith angles that split the sphere for an observer at altitude h: rays with
+// θ < theta_space miss the atmosphere (0 inside it), rays with θ > theta_horizon hit the
+// ground. Written without subtracting radii: acos(R/r0) = atan2(sqrt(h(2R + h)), R).
+struct Horizon {
+    double theta_space = 0.0;
+    double theta_horizon = kPi / 2;
+};
+
+Horizon horizon_of(const Atmosphere& atm, double h) {
+    const double R = atm.planet_radius_m, top = atm.top_altitude_m;
+    Horizon hz;
+    hz.theta_horizon = kPi / 2 + std::atan2(std::sqrt(h * (2 * R + h)), R);
+    if (h > top) hz.theta_space = kPi / 2 + std::atan2(std::sqrt((h - top) * (2 * R + top + h)), R + top);
+    return hz;
+}
+
+// The sky grid (SkySettings::grid). Rows: two pieces of zenith angle meeting at the
+// horizon, node 0 of each next to the horizon; the fraction f ∈ [0, 1] of a piece's span
+// away from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1), i.e. rows 5× denser
+// at the horizon than at the far end (c = 0.25). Columns: azimuth from the sun ψ ∈ [0, π].
+struct SkyGrid {
+    static constexpr double kC = 0.25;
+    // Nodes next to the horizon sit this far inside their piece so that the evaluator sees
+    // an unambiguous sky or ground ray (the radiance is continuous up to the edge).
+    static constexpr double kEdge = 1e-7;
+    int intervals = 0;  // ψ intervals (G)
+    int rows_sky = 0, rows_ground = 0;
+    Horizon hz;
+    std::vector<double> rgb;  // (rows_sky + rows_ground) × (G + 1) × 3, pre-clamp linear Rec.709
+
+    static double f_of_x(double x) { return x * (x + kC) / (1.0 + kC); }
+    static double x_of_f(double f) { return 0.5 * (-kC + std::sqrt(kC * kC + 4.0 * (1.0 + kC) * f)); }
+
+    double sky_span() const { return hz.theta_horizon - hz.theta_space; }
+    double ground_span() const { return kPi - hz.theta_horizon; }
+    // Zenith angle of grid row k (sky rows first).
+    double row_theta(int k) const {
+        if (k < rows_sky) {
+            const double f = f_of_x(double(k) / (rows_sky - 1));
+            return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0);
+        }
+        const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1));
+        return std::min(hz.theta_horizon + f * ground_span(), kPi) + (k == rows_sky ? kEdge : 0.0);
+    }
+    // Continuous grid row of a zenith angle; −1 for directions that miss the atmosphere.
+    double row_of(double theta) const {
+        if (theta <= hz.theta_horizon) {
+            if (theta < hz.theta_space || sky_span() <= 0.0) return -1.0;
+            return x_of_f(std::clamp((hz.theta_horizon - theta) / sky_span(), 0.0, 1.0)) * (rows_sky - 1);
+        }
+        if (rows_ground == 0) return -1.0;
+        return rows_sky +
+               x_of_f(std::clamp((theta - hz.theta_horizon) / ground_span(), 0.0, 1.0)) * (rows_ground - 1);
+    }
+    const double* at(int row, int col) const { return rgb.data() + (std::size_t(row) * (intervals + 1) + col) * 3; }
+};
+
+}  // namespace
+
+int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
+    if (settings.grid >= 0) return settings.grid;
+    const int image_rows = settings.region == SkyRegion::upper ? (settings.height + 1) / 2 : settings.height;
+    const bool mirrored = mirror_key(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings.width) >= 0;
+    const double pixel_rays = double(settings.width) * image_rows / (mirrored ? 2.0 : 1.0);
+    const int rows = settings.region == SkyRegion::upper ? kSkyDefaultGrid / 2 + 1 : kSkyDefaultGrid + 2;
+    const double grid_rays = double(kSkyDefaultGrid + 1) * rows;
+    return grid_rays < pixel_rays ? kSkyDefaultGrid : 0;
+}
+
+FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
+    const SkyContext ctx = prepare(scene, settings);
+    const int W = settings.width, H = settings.height;
+    const std::size_t nw = ctx.atmosphere.wavelength_count();
+    FloatImage image;
+    try {
+        image = FloatImage(W, H, 3);
+    } catch (const std::bad_alloc&) {
+        throw SkyError("width x height = " + std::to_string(W) + " x " + std::to_string(H) + ": the image needs " +
+                       std::to_string(double(W) * H * 12 / 1e9) + " GB, more memory than is available");
+    }
+    const bool upper = settings.region == SkyRegion::upper;
+    const int image_rows = upper ? (H + 1) / 2 : H;  // rows whose centre is at or above the horizon
+    const long key = mirror_key(ctx.sun, W);
+    const double sun_phi = std::atan2(ctx.sun.y, ctx.sun.x);
+
+    // Per pixel or through the grid?
+    SkyGrid grid;
+    grid.hz = horizon_of(ctx.atmosphere, ctx.altitude_m);
+    const int G = effective_sky_grid(scene, settings);
+    if (G > 0) {
+        grid.intervals = G;
+        grid.rows_sky = std::max(G / 2, 2) + 1;
+        grid.rows_ground = upper && grid.hz.theta_horizon >= kPi / 2 ? 0 : std::max(G / 2, 2) + 1;
+    }
+    const int grid_rows = grid.rows_sky + grid.rows_ground;
+    const std::size_t total_work = std::size_t(grid_rows) + std::size_t(H);
+    auto report = [&](std::size_t n) {
+        if (hooks.work_done) hooks.work_done(n, total_work);
+    };
+    auto cancelled = [&] { return hooks.cancel && hooks.cancel->requested(); };
+
+    const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
+    tbb::task_arena arena(threads);
+
+    // Scratch per thread for one batch of rays.
+    struct Scratch {
+        std::vector<Vec3<double>> dirs;
+        std::vector<double> transmittance, rayleigh, mie, radiance;
+        void resize(std::size_t n, std::size_t nw) {
+            dirs.resize(n);
+            for (auto* v : {&transmittance, &rayleigh, &mie, &radiance}) v->resize(n * nw);
+        }
+        RadianceOut out(std::size_t n, std::size_t nw) {
+            return {{transmittance.data(), n * nw}, {rayleigh.data(), n * nw}, {mie.data(), n * nw},
+                    {radiance.data(), n * nw}};
+        }
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch;
+    auto evaluate = [&](Scratch& s, std::size_t n) {
+        single_scattering_batch(ctx.atmosphere, ctx.altitude_m, Vec3<double>(ctx.sun),
+                                std::span<const Vec3<double>>(s.dirs.data(), n), s.out(n, nw));
+    };
+
+    if (G > 0) {
+        // ---- the grid, then every pixel interpolated from it ----
+        const int cols = G + 1;
+        grid.rgb.assign(std::size_t(grid_rows) * cols * 3, 0.0);
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<int>(0, grid_rows, 1), [&](const tbb::blocked_range<int>& r) {
+                Scratch& s = scratch.local();
+                s.resize(cols, nw);
+                for (int k = r.begin(); k < r.end(); ++k) {
+                    if (cancelled()) return;
+                    const double theta = grid.row_theta(k);
+                    const double st = std::sin(theta), ct = std::cos(theta);
+                    for (int j = 0; j < cols; ++j) {
+                        const double phi = sun_phi + kPi * j / G;
+                        s.dirs[j] = Vec3<double>(st * std::cos(phi), st * std::sin(phi), ct);
+                    }
+                    evaluate(s, cols);
+                    for (int j = 0; j < cols; ++j) {
+                        const Vec3d rgb = ctx.to_rgb.apply(std::span<const double>(s.radiance.data() + j * nw, nw));
+                        double* out = grid.rgb.data() + (std::size_t(k) * cols + j) * 3;
+                        for (int c = 0; c < 3; ++c) out[c] = rgb[c];
+                    }
+                    report(1);
+                }
+            });
+        });
+        if (cancelled()) throw Cancelled("sky: cancelled");
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
+                for (int y = r.begin(); y < r.end(); ++y) {
+                    if (cancelled()) return;
+                    if (y < image_rows) {
+                        const double theta = kPi * (y + 0.5) / H;
+                        const double fr = grid.row_of(theta);
+                        if (fr >= 0.0) {
+                            const int r0 = std::min(static_cast<int>(fr), grid_rows - 2);
+                            // never interpolate across the horizon: clamp to the piece's last row
+                            const int piece_end = r0 < grid.rows_sky ? grid.rows_sky - 1 : grid_rows - 1;
+                            const int r1 = std::min(r0 + 1, piece_end);
+                            const double wr = r1 > r0 ? fr - r0 : 0.0;
+                            for (int x = 0; x < W; ++x) {
+                                const double phi = kPi - kTwoPi * (x + 0.5) / W;
+                                const double psi = std::abs(std::remainder(phi - sun_phi, kTwoPi));
+                                const double fc = std::min(psi / kPi, 1.0) * G;
+                                const int c0 = std::min(static_cast<int>(fc), G - 1);
+                                const double wc = fc - c0;
+                                const double *a = grid.at(r0, c0), *b = grid.at(r0, c0 + 1), *c = grid.at(r1, c0),
+                                             *d = grid.at(r1, c0 + 1);
+                                float* px = image.at(x, y);
+                                for (int ch = 0; ch < 3; ++ch) {
+                                    const double v = (1 - wr) * ((1 - wc) * a[ch] + wc * b[ch]) +
+                                                     wr * ((1 - wc) * c[ch] + wc * d[ch]);
+                                    px[ch] = static_cast<float>(std::max(v, 0.0));
+                                }
+                            }
+                        }
+                    }
+                    report(1);
+                }
+            });
+        });
+    } else {
+        // ---- every pixel evaluated (half of them when the mirror applies) ----
+        std::vector<int> columns;
+        for (int x = 0; x < W; ++x) {
+            const long m = key >= 0 ? ((key - 1 - x) % W + W) % W : x;
+            if (x <= m) columns.push_back(x);
+        }
+        report(std::size_t(grid_rows));
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& r) {
+                Scratch& s = scratch.local();
+                s.resize(columns.size(), nw);
+                for (int y = r.begin(); y < r.end(); ++y) {
+                    if (cancelled()) return;
+                    if (y < image_rows) {
+                        for (std::size_t k = 0; k < columns.size(); ++k)
+                            s.dirs[k] = Vec3<double>(equirect_pixel_direction(columns[k], y, W, H));
+                        evaluate(s, columns.size());
+                        for (std::size_t k = 0; k < columns.size(); ++k) {
+                            const int x = columns[k];
+                            float* px = image.at(x, y);
+                            store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
+                            if (key >= 0) std::copy(px, px + 3, image.at(static_cast<int>(((key - 1 - x) % W + W) % W), y));
+                        }
+                    }
+                    report(1);
+                }
+            });
+        });
+    }
+    if (cancelled()) throw Cancelled("sky: cancelled");
+
+    if (settings.sun_disc) add_sun_disc(ctx, settings, image);
+    return image;
+}
+
+std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
+                                         std::span<const glm::dvec3> directions) {
+    SkyContext ctx = prepare(scene, settings);
+    ctx.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
+    const std::size_t nw = ctx.atmosphere.wavelength_count();
+    std::vector<glm::dvec3> out(directions.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, directions.size(), 16),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw);
+                          for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                              const glm::dvec3 d = glm::normalize(directions[k]);
+                              single_scattering(ctx.atmosphere,
+                                                ViewRay{ctx.altitude_m, Vec3<double>(d), Vec3<double>(ctx.sun)},
+                                                RadianceOut{t, ray, mie, radiance});
+                              float px[3];
+                              store_rgb(ctx.to_rgb, radiance, px);
+                              out[k] = {px[0], px[1], px[2]};
+                          }
+                      });
+    return out;
+}
+
+glm::dvec3 sky_radiance_rgb(const Scene& scene, const SkySettings& settings, const glm::dvec3& direction) {
+    return sky_radiance_rgb(scene, settings, std::span<const glm::dvec3>(&direction, 1)).front();
+}
+
+std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings) {
+    nlohmann::ordered_json j;
+    j["width"] = settings.width;
+    j["height"] = settings.height;
+    j["region"] = settings.region == SkyRegion::full ? "full" : "upper";
+    j["view_samples"] = settings.view_samples;
+    j["chapman"] = std::string(chapman_method_name(settings.chapman));
+    j["sun_disc"] = settings.sun_disc;
+    j["grid"] = settings.grid;
+    j["grid_used"] = effective_sky_grid(scene, settings);
+    j["basis"] = scene.basis.kind == SpectralBasis::Kind::rgb_schuler ? "rgb-schuler" : "spectral";
+    j["wavelengths_nm"] = basis_wavelengths_nm(scene.basis);
+    j["sun_elevation_deg"] = scene.sun.elevation_deg;
+    j["sun_rotation_deg"] = scene.sun.azimuth_deg;
+    const glm::dvec3 s = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+    j["sun_direction"] = {s.x, s.y, s.z};
+    j["observer_altitude_m"] = scene.observer.altitude_m;
+    j["mapping"] = "equirectangular, Blender/Cycles: Z up, centre +X, quarter from left +Y, top row zenith";
+    j["units"] = "linear Rec.709 from XYZ = sum L(lambda) CMF(lambda) dlambda (CIE 1931 2 deg, no 683 lm/W), "
+                 "L in W m^-2 sr^-1 nm^-1; as Blender's Nishita sky texture";
+    return j.dump();
+}
+
+ImageMetadata sky_metadata(const Scene& scene, const SkySettings& settings) {
+    return {
+        {"airmass:version", AIRMASS_VERSION_STRING},
+        {"airmass:scene", scene_to_json(scene)},
+        {"airmass:settings", sky_settings_to_json(scene, settings)},
+        {"airmass:convention", "blender-equirectangular"},
+        {"airmass:units", "linear-rec709-blender-nishita"},
+        {"Software", std::string("airmass ") + AIRMASS_VERSION_STRING},
+    };
+}
+
+}  // namespace airmass

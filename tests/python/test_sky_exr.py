@@ -1,0 +1,241 @@
+"""`airmass sky` end to end: the EXR as Blender would read it (OpenImageIO, Debian's python3).
+
+Checks channels, size, pixel type, orientation (Blender's equirectangular convention and
+Sky Texture sun angles), metadata, the upper-hemisphere option, clear errors for unwritable
+destinations, and that Ctrl-C leaves no file behind.
+"""
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import textwrap
+import time
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+
+
+def run_sky(airmass_bin, out, *args, check=True):
+    cmd = [str(airmass_bin), "sky", "--preset", "earth", "-o", str(out), "--quiet", *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if check:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def read_exr(path):
+    inp = oiio.ImageInput.open(str(path))
+    assert inp is not None, oiio.geterror()
+    spec = inp.spec()
+    pixels = inp.read_image(oiio.FLOAT)
+    inp.close()
+    return spec, pixels
+
+
+def luminance(px):
+    return 0.2126 * px[..., 0] + 0.7152 * px[..., 1] + 0.0722 * px[..., 2]
+
+
+def test_exr_is_rgb_float_of_the_requested_size(airmass_bin, tmp_path):
+    out = tmp_path / "sky.exr"
+    run_sky(airmass_bin, out, "--width", "128", "--basis", "rgb", "--samples", "8")
+    spec, px = read_exr(out)
+    assert (spec.width, spec.height, spec.nchannels) == (128, 64, 3)
+    assert list(spec.channelnames) == ["R", "G", "B"]
+    assert spec.format == oiio.FLOAT  # 32-bit float on disk, not half
+    assert px.shape == (64, 128, 3)
+    assert np.all(np.isfinite(px)) and px.min() >= 0.0
+    # Metadata: the scene and settings as JSON, the version.
+    settings = json.loads(spec.getattribute("airmass:settings"))
+    assert settings["width"] == 128 and settings["basis"] == "rgb-schuler"
+    assert json.loads(spec.getattribute("airmass:scene"))
+    assert spec.getattribute("airmass:version")
+    assert list(tmp_path.iterdir()) == [out]  # no temporary left behind
+
+
+@pytest.mark.parametrize("rotation,elevation", [(0.0, 30.0), (90.0, 30.0), (90.0, 60.0), (200.0, 15.0)])
+def test_sun_lands_where_blender_puts_it(airmass_bin, tmp_path, rotation, elevation):
+    """Sky Texture rotation 0° → +Y (a quarter from the left), 90° → +X (the centre);
+    top row = zenith, so the sun's row is (90° − elevation)/180° of the height down."""
+    out = tmp_path / "sky.exr"
+    w, h = 360, 180
+    run_sky(airmass_bin, out, "--width", str(w), "--height", str(h), "--basis", "rgb", "--samples", "4",
+            "--sun-rotation", str(rotation), "--sun-elevation", str(elevation))
+    _, px = read_exr(out)
+    y, x = np.unravel_index(np.argmax(luminance(px)), (h, w))
+    # Blender: direction (cos e sin r, cos e cos r, sin e); Cycles: u = (atan2(y,x) − π)/(−2π).
+    sun = (math.cos(math.radians(elevation)) * math.sin(math.radians(rotation)),
+           math.cos(math.radians(elevation)) * math.cos(math.radians(rotation)))
+    u = (math.atan2(sun[1], sun[0]) - math.pi) / (-2 * math.pi)
+    expected_x = u * w
+    expected_y = (90.0 - elevation) / 180.0 * h
+    dx = (x + 0.5 - expected_x + w / 2) % w - w / 2
+    assert abs(dx) <= 1.0, (x, expected_x)
+    assert abs(y + 0.5 - expected_y) <= 1.0, (y, expected_y)
+
+
+def test_orientation_zenith_on_top_ground_below(airmass_bin, tmp_path):
+    out = tmp_path / "sky.exr"
+    run_sky(airmass_bin, out, "--width", "64", "--basis", "rgb", "--samples", "8", "--sun-elevation", "45",
+            "--no-sun-disc")
+    _, px = read_exr(out)
+    top, bottom = px[0].mean(axis=0), px[-1].mean(axis=0)
+    # The zenith sky is blue (Rayleigh); straight down is the grey ground (albedo 0.1) lit by
+    # the reddened direct sun and seen through 0 m of air: red over blue.
+    assert top[2] > 1.5 * top[0], top
+    assert bottom[0] > bottom[2], bottom
+    # The horizon row pair: sky above, ground below; each row is uniform in brightness far from the sun.
+
+
+def test_upper_hemisphere_leaves_the_lower_half_zero(airmass_bin, tmp_path):
+    out = tmp_path / "sky.exr"
+    run_sky(airmass_bin, out, "--width", "64", "--basis", "rgb", "--samples", "4", "--hemisphere", "upper")
+    _, px = read_exr(out)
+    h = px.shape[0]
+    assert h == 32
+    assert np.all(px[h // 2:] == 0.0)
+    assert np.all(px[:h // 2].max(axis=(1, 2)) > 0.0)
+
+
+def test_unwritable_destination_is_a_clear_error_and_no_file(airmass_bin, tmp_path):
+    proc = run_sky(airmass_bin, tmp_path / "missing" / "sky.exr", "--width", "16", check=False)
+    assert proc.returncode != 0
+    assert "does not exist" in proc.stderr, proc.stderr
+    assert not (tmp_path / "missing").exists()
+    proc = run_sky(airmass_bin, "/proc/airmass-sky-test.exr", "--width", "16", "--basis", "rgb", check=False)
+    assert proc.returncode != 0
+    assert "/proc/airmass-sky-test.exr" in proc.stderr, proc.stderr
+    assert not os.path.exists("/proc/airmass-sky-test.exr")
+
+
+def test_bad_options_name_the_option(airmass_bin, tmp_path):
+    for args, text in [(["--sun-elevation", "95"], "--sun-elevation"), (["--width", "0"], "width"),
+                       (["--samples", "0"], "samples"), (["--chapman", "nope"], "--chapman"),
+                       (["--wavelengths", "300:400:10"], "--wavelengths"), (["--basis", "rgb", "--wavelengths", "21"], "--wavelengths")]:
+        proc = run_sky(airmass_bin, tmp_path / "sky.exr", *args, check=False)
+        assert proc.returncode != 0, args
+        assert text in proc.stderr, (args, proc.stderr)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_leaves_no_file(airmass_bin, tmp_path):
+    out = tmp_path / "sky.exr"
+    # Large and spectral so that it is still running when the signal arrives.
+    cmd = [str(airmass_bin), "sky", "--preset", "earth", "-o", str(out), "--width", "2048",
+           "--wavelengths", "360:830:5", "--samples", "256", "--threads", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Interrupt once it is rendering: when its SIGINT handler is installed (SigCgt bit 2 in
+    # /proc/PID/status; before that, start-up — loading OpenImageIO — can take seconds).
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        with open(f"/proc/{proc.pid}/status") as f:
+            caught = int(f.read().split("SigCgt:")[1].split()[0], 16)
+        if caught & (1 << (signal.SIGINT - 1)):
+            break
+        time.sleep(0.02)
+    time.sleep(0.2)
+    assert proc.poll() is None, "render finished before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0
+    assert "cancel" in err, (proc.returncode, err)
+    assert list(tmp_path.iterdir()) == []
+
+
+BLENDER_PANO = textwrap.dedent("""
+    import math, sys
+    import bpy
+    out, w, h, elev, rot = sys.argv[sys.argv.index("--") + 1:]
+    scene = bpy.context.scene
+    for o in list(bpy.data.objects):
+        if o.type != "CAMERA":
+            bpy.data.objects.remove(o)
+    cam = scene.camera
+    cam.location = (0, 0, 0)
+    # Level, looking along +X: the panorama then uses the World's equirectangular convention.
+    cam.rotation_euler = (math.pi / 2, 0, -math.pi / 2)
+    cam.data.type = "PANO"
+    cam.data.cycles.panorama_type = "EQUIRECTANGULAR"
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.filter_width = 0.01  # one ray through each pixel centre
+    scene.render.resolution_x, scene.render.resolution_y = int(w), int(h)
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = out
+    world = bpy.data.worlds.new("nishita")
+    scene.world = world
+    world.use_nodes = True
+    tex = world.node_tree.nodes.new("ShaderNodeTexSky")
+    tex.sky_type = "NISHITA"
+    tex.sun_elevation = math.radians(float(elev))
+    tex.sun_rotation = math.radians(float(rot))
+    tex.altitude = 1.0
+    tex.sun_disc = False
+    world.node_tree.links.new(tex.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    bpy.ops.render.render(write_still=True)
+""")
+
+
+@pytest.mark.skipif(shutil.which("blender") is None, reason="blender not installed")
+@pytest.mark.parametrize("elevation,rotation", [(15.0, 0.0), (40.0, 90.0)])
+def test_matches_blenders_own_nishita_sky(airmass_bin, tmp_path, elevation, rotation):
+    """Blender 3.4 renders its Nishita Sky Texture through an equirectangular camera (one ray
+    per pixel centre); `airmass sky --preset blender-nishita` with the same sun must agree in
+    orientation (same brightest column) and in units (the exposure does not change when one
+    replaces the other): median ratio within 3 % above 10° elevation, where Blender's
+    32-step, 512×128-texture approximation is itself converged."""
+    w, h = 256, 128
+    script = tmp_path / "pano.py"
+    script.write_text(BLENDER_PANO)
+    blender_exr = tmp_path / "blender.exr"
+    proc = subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script),
+                           "--", str(blender_exr), str(w), str(h), str(elevation), str(rotation)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0 and blender_exr.exists(), proc.stdout[-2000:] + proc.stderr[-2000:]
+    ours_exr = tmp_path / "airmass.exr"
+    proc = subprocess.run([str(airmass_bin), "sky", "--preset", "blender-nishita", "-o", str(ours_exr), "--quiet",
+                           "--width", str(w), "--height", str(h), "--sun-elevation", str(elevation),
+                           "--sun-rotation", str(rotation), "--altitude", "1", "--no-sun-disc"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    _, theirs = read_exr(blender_exr)
+    _, ours = read_exr(ours_exr)
+    theirs = theirs[..., :3]
+    upper = h // 2 - 1  # rows above the horizon (Blender fades its sky out below)
+    col_theirs = np.argmax(luminance(theirs[:upper]).max(axis=0))
+    col_ours = np.argmax(luminance(ours[:upper]).max(axis=0))
+    assert abs((int(col_theirs) - int(col_ours) + w // 2) % w - w // 2) <= 1, (col_theirs, col_ours)
+    rows = int(h * (90 - 10) / 180)  # elevation above 10°
+    ratio = ours[:rows] / np.maximum(theirs[:rows], 1e-6)
+    median = np.median(ratio.reshape(-1, 3), axis=0)
+    assert np.all(np.abs(median - 1.0) < 0.03), median
+
+
+def test_report_sky_quick_and_its_plot(airmass_bin, tmp_path):
+    """`airmass report sky --quick` writes its tables; scripts/plot_sky_trade.py draws the plot."""
+    out = tmp_path / "report"
+    proc = subprocess.run([str(airmass_bin), "report", "sky", "--quick", "--out", str(out), "--width", "32",
+                           "--reference-samples", "16"], capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for name in ("sky_trade.csv", "sky_trade_conditions.csv", "sky_reference.csv", "sky_trade.md"):
+        assert (out / name).stat().st_size > 0, name
+    import csv
+    with open(out / "sky_trade.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) >= 10
+    for r in rows:
+        assert float(r["ms_per_mpix"]) > 0
+        assert 0 <= float(r["p95_above"]) < 1.0, r
+    assert "Default settings" in (out / "sky_trade.md").read_text()
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "scripts", "plot_sky_trade.py")
+    proc = subprocess.run(["/usr/bin/python3", script, str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "sky_trade.png").stat().st_size > 10000
