@@ -1,8 +1,91 @@
-// Placeholder: `airmass report vdb` is being built (see the open issues).
+// `airmass report vdb --out DIR`: the voxel-size trade of the OpenVDB export — optical
+// depth and transmittance through the grids vs the analytic value along fixed rays,
+// and what each voxel size costs (docs/vdb.md). Writes
+//   vdb_trade_rays.csv    voxel size, ray, RGB optical depth reference / grid, errors
+//   vdb_trade_costs.csv   voxel size, region, active voxels, memory, dense boxes, file, times
+//   vdb_trade.md          the Markdown tables docs/vdb.md shows
+// scripts/plot_vdb_trade.py turns the CSVs into vdb_trade.png.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "airmass/progress.hpp"
+#include "airmass/scene_io.hpp"
+#include "airmass/vdb_export.hpp"
+#include "airmass/vdb_trade.hpp"
 #include "commands.hpp"
 
 namespace airmass::cli {
 
-void add_report_vdb(CLI::App&) {}
+namespace {
+
+struct ReportVdbOptions {
+    std::string out, scene_path, preset = "earth", sizes;
+    bool no_view = false, quiet = false;
+};
+
+std::vector<double> parse_sizes(const std::string& text) {
+    std::vector<double> out;
+    std::stringstream ss(text);
+    for (std::string part; std::getline(ss, part, ',');) {
+        std::size_t used = 0;
+        double v = 0;
+        try {
+            v = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != part.size() || !std::isfinite(v) || !(v > 0))
+            throw CliError("report vdb: --voxel-sizes: '" + part + "' is not a length > 0 (km)");
+        out.push_back(v);
+    }
+    if (out.empty()) throw CliError("report vdb: --voxel-sizes: give at least one size (km), e.g. 0.5,1,2");
+    return out;
+}
+
+}  // namespace
+
+void add_report_vdb(CLI::App& report) {
+    auto* cmd = report.add_subcommand("vdb", "Voxel size vs optical-depth error and cost of the OpenVDB export");
+    auto o = std::make_shared<ReportVdbOptions>();
+    cmd->add_option("--out", o->out, "Output directory")->required();
+    auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML) instead of the preset");
+    cmd->add_option("--preset", o->preset, "Built-in scene")->capture_default_str()->excludes(scene_opt);
+    cmd->add_option("--voxel-sizes", o->sizes, "Comma-separated voxel sizes in km  [default 0.25,0.5,1,2,4,8]");
+    cmd->add_flag("--no-view", o->no_view, "Skip the cost of the Earth view region (faster)");
+    cmd->add_flag("-q,--quiet", o->quiet, "No progress bar");
+    cmd->callback([o] {
+        namespace fs = std::filesystem;
+        const fs::path dir(o->out);
+        std::error_code ec;
+        fs::create_directories(dir, ec);
+        if (!fs::is_directory(dir)) throw CliError("report vdb: --out '" + o->out + "' is not a directory");
+        const Scene scene = o->scene_path.empty() ? load_preset(o->preset) : load_scene_file(o->scene_path);
+        VdbTradeOptions t;
+        if (!o->sizes.empty()) t.voxel_sizes = parse_sizes(o->sizes);
+        t.measure_view_region = !o->no_view;
+        t.scratch_dir = dir;
+        CancelFlag cancel;
+        InterruptGuard guard(cancel);
+        t.cancel = &cancel;
+        ProgressBar bar("report vdb", t.voxel_sizes.size(), stderr_is_terminal() && !o->quiet);
+        std::size_t shown = 0;
+        t.progress = [&](double f) {
+            const auto n = std::size_t(std::lround(f * double(t.voxel_sizes.size())));
+            if (n > shown) bar.advance(n - shown), shown = n;
+        };
+        const VdbTradeResult r = run_vdb_trade(scene, t);
+        bar.finish();
+        write_text_atomic(dir / "vdb_trade_rays.csv", vdb_trade_rays_csv(r));
+        write_text_atomic(dir / "vdb_trade_costs.csv", vdb_trade_costs_csv(r));
+        const std::string md = vdb_trade_markdown(r, scene.name);
+        write_text_atomic(dir / "vdb_trade.md", md);
+        std::printf("%s", md.c_str());
+    });
+}
 
 }  // namespace airmass::cli

@@ -1,0 +1,604 @@
+// vdb_export: round trips through OpenVDB files, regions, tiling, metadata, analytic
+// descriptions and bad input. Small regions and coarse voxels keep this fast.
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "airmass/progress.hpp"
+#include "airmass/scene_io.hpp"
+#include "airmass/vdb_export.hpp"
+#include "airmass/vdb_grids.hpp"
+#include "airmass/vdb_trade.hpp"
+
+namespace fs = std::filesystem;
+using namespace airmass;
+using openvdb::Coord;
+using openvdb::Vec3d;
+
+namespace {
+
+class TempDir {
+public:
+    TempDir() {
+        path_ = fs::temp_directory_path() /
+                ("airmass_test_vdb_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ec);
+        fs::remove_all(path_, ec);
+    }
+    const fs::path& path() const { return path_; }
+    fs::path operator/(const std::string& name) const { return path_ / name; }
+    std::vector<std::string> entries() const {
+        std::vector<std::string> out;
+        for (const auto& e : fs::directory_iterator(path_)) out.push_back(e.path().filename().string());
+        return out;
+    }
+
+private:
+    fs::path path_;
+    static inline int counter_ = 0;
+};
+
+struct ReadBack {
+    openvdb::MetaMap::Ptr file_meta;
+    std::map<std::string, openvdb::FloatGrid::Ptr> grids;
+};
+
+ReadBack read_vdb(const fs::path& path) {
+    openvdb::initialize();
+    openvdb::io::File file(path.string());
+    file.open();
+    ReadBack r;
+    r.file_meta = file.getMetadata();
+    for (auto it = file.beginName(); it != file.endName(); ++it)
+        r.grids[it.gridName()] = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(it.gridName()));
+    file.close();
+    return r;
+}
+
+// Independent altitude of a world point for the earth preset in km, origin on the surface.
+double altitude_km(const Vec3d& p, const Vec3d& center = Vec3d(0, 0, -6360)) { return (p - center).length() - 6360.0; }
+
+const Constituent& constituent(const Scene& s, const std::string& name) {
+    for (const auto& c : s.constituents)
+        if (c.name == name) return c;
+    throw std::runtime_error("no constituent " + name);
+}
+
+// A small box through the whole atmosphere above the origin, 2-km voxels.
+VdbOptions small_box() {
+    VdbOptions o;
+    o.region = VdbRegion::box;
+    o.box = {-10, -10, -1, 10, 10, 62};
+    o.voxel_size = 2.0;
+    return o;
+}
+
+}  // namespace
+
+TEST(Vdb, RoundTripValuesAtVoxelCentresEqualTheAnalyticDensity) {
+    const Scene scene = load_preset("earth");
+    TempDir dir;
+    const fs::path out = dir / "a.vdb";
+    const VdbStats stats = export_vdb(scene, small_box(), out);
+    ASSERT_EQ(stats.files.size(), 1u);
+    EXPECT_EQ(stats.files[0], out);
+    EXPECT_EQ(stats.file_bytes, fs::file_size(out));
+    const ReadBack rb = read_vdb(out);
+    ASSERT_EQ(rb.grids.size(), 3u);
+    std::size_t checked = 0;
+    for (const char* name : {"rayleigh", "mie", "ozone"}) {
+        SCOPED_TRACE(name);
+        ASSERT_TRUE(rb.grids.count(name));
+        const auto& g = rb.grids.at(name);
+        EXPECT_EQ(g->getGridClass(), openvdb::GRID_FOG_VOLUME);
+        EXPECT_GT(g->activeVoxelCount(), 0u);
+        const DensityProfile& prof = constituent(scene, name).profile;
+        for (auto it = g->cbeginValueOn(); it; ++it) {
+            const Vec3d p = g->indexToWorld(it.getCoord());
+            const double h_km = altitude_km(p);
+            const double expected = prof.at(h_km * 1000.0);
+            // float storage: relative error ≤ 2^-23 of the stored value, plus the double→float rounding
+            EXPECT_NEAR(*it, expected, 2e-7 * expected + 1e-30) << "at " << p;
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 1000u);
+    // Spot values by hand: Rayleigh exp(−h/8 km) and the ozone tent 10–25–40 km on the axis.
+    auto ray = rb.grids.at("rayleigh")->getConstAccessor();
+    EXPECT_FLOAT_EQ(ray.getValue(Coord(0, 0, 0)), 1.0f);
+    EXPECT_FLOAT_EQ(ray.getValue(Coord(0, 0, 4)), float(std::exp(-1.0)));
+    auto oz = rb.grids.at("ozone")->getConstAccessor();
+    EXPECT_FLOAT_EQ(oz.getValue(Coord(0, 0, 10)), float(10.0 / 15.0));  // 20 km
+    EXPECT_FALSE(oz.isValueOn(Coord(0, 0, 4)));                          // 8 km: below the tent
+}
+
+TEST(Vdb, EveryVoxelOfTheRegionAboveTheThresholdIsActive) {
+    const Scene scene = load_preset("earth");
+    const VdbOptions opt = small_box();
+    const VdbVolume vol = build_vdb_volume(scene, opt);
+    ASSERT_EQ(vol.tiles.size(), 1u);
+    const VdbLayout& L = vol.layout;
+    for (std::size_t c = 0; c < L.constituents.size(); ++c) {
+        SCOPED_TRACE(L.constituents[c].name);
+        auto acc = vol.tiles[0].grids[c]->getConstAccessor();
+        std::size_t expected_on = 0;
+        // Voxel centres inside the box (no margin needed for this check) and the shell.
+        for (int i = -5; i <= 5; ++i)
+            for (int j = -5; j <= 5; ++j)
+                for (int k = 0; k <= 31; ++k) {
+                    const Vec3d p(2.0 * i, 2.0 * j, 2.0 * k);
+                    const double h = altitude_km(p);
+                    if (h < 0 || h > 60) continue;
+                    const double rho = L.constituents[c].source->profile.at(h * 1000);
+                    if (rho > 0 && rho >= L.constituents[c].density_threshold) {
+                        EXPECT_TRUE(acc.isValueOn(Coord(i, j, k))) << p;
+                        ++expected_on;
+                    } else {
+                        EXPECT_FALSE(acc.isValueOn(Coord(i, j, k))) << p;
+                    }
+                }
+        EXPECT_GT(expected_on, 0u);
+    }
+}
+
+TEST(Vdb, MetadataIsCompleteAndDescribesTheScene) {
+    const Scene scene = load_preset("earth");
+    TempDir dir;
+    export_vdb(scene, small_box(), dir / "m.vdb");
+    const ReadBack rb = read_vdb(dir / "m.vdb");
+    for (const auto& [name, g] : rb.grids) {
+        SCOPED_TRACE(name);
+        EXPECT_EQ(g->metaValue<std::string>("airmass:length_unit"), "km");
+        EXPECT_DOUBLE_EQ(g->metaValue<double>("airmass:planet_radius"), 6360.0);
+        EXPECT_EQ(g->metaValue<Vec3d>("airmass:planet_center"), Vec3d(0, 0, -6360.0));
+        EXPECT_DOUBLE_EQ(g->metaValue<double>("airmass:atmosphere_top"), 6420.0);
+        EXPECT_EQ(g->metaValue<std::string>("airmass:spectral_basis"), "rgb_bruneton_680_550_440");
+        EXPECT_EQ(g->metaValue<Vec3d>("airmass:rgb_wavelengths_nm"), Vec3d(680, 550, 440));
+        EXPECT_EQ(g->metaValue<std::string>("airmass:version"), "0.1.0");
+        EXPECT_DOUBLE_EQ(g->metaValue<double>("airmass:voxel_size"), 2.0);
+        const Constituent& c = constituent(scene, name);
+        const Vec3d s = g->metaValue<Vec3d>("airmass:scattering_rgb"), a = g->metaValue<Vec3d>("airmass:absorption_rgb");
+        const double lambdas[3] = {680, 550, 440};
+        for (int i = 0; i < 3; ++i) {
+            EXPECT_NEAR(s[i], c.scattering.at(lambdas[i]) * 1000.0, 1e-12 * std::abs(s[i]) + 1e-30);
+            EXPECT_NEAR(a[i], c.absorption.at(lambdas[i]) * 1000.0, 1e-12 * std::abs(a[i]) + 1e-30);
+        }
+        EXPECT_DOUBLE_EQ(g->metaValue<double>("airmass:g"), c.phase.g);
+        EXPECT_FALSE(g->metaValue<std::string>("airmass:phase").empty());
+        const auto profile = nlohmann::json::parse(g->metaValue<std::string>("airmass:profile"));
+        if (name == "rayleigh") {
+            EXPECT_EQ(profile["type"], "exponential");
+            EXPECT_DOUBLE_EQ(profile["scale_height"].get<double>(), 8.0);
+            EXPECT_EQ(g->metaValue<std::string>("airmass:phase"), "rayleigh");
+            EXPECT_NEAR(s[1], 1.24062e-6 * std::pow(0.55, -4.0) * 1000.0, 1e-12);
+        } else if (name == "ozone") {
+            EXPECT_EQ(profile["type"], "tent");
+            EXPECT_DOUBLE_EQ(profile["peak"].get<double>(), 25.0);
+            EXPECT_EQ(s, Vec3d(0, 0, 0));
+            EXPECT_GT(a[0], 0.0);
+        } else {
+            EXPECT_EQ(name, "mie");
+            EXPECT_DOUBLE_EQ(profile["scale_height"].get<double>(), 1.2);
+            EXPECT_DOUBLE_EQ(g->metaValue<double>("airmass:g"), 0.8);
+        }
+    }
+    EXPECT_EQ(rb.file_meta->metaValue<std::string>("airmass:length_unit"), "km");
+    const auto scene_json = nlohmann::json::parse(rb.file_meta->metaValue<std::string>("airmass:scene"));
+    EXPECT_TRUE(scene_json.is_object());
+}
+
+TEST(Vdb, TransformPlacesThePlanetCentreWhereTheSceneSays) {
+    const Scene scene = load_preset("earth");
+    for (const PlanetOrigin origin : {PlanetOrigin::surface, PlanetOrigin::center}) {
+        for (const LengthUnit unit : {LengthUnit::km, LengthUnit::m}) {
+            SCOPED_TRACE(std::string(length_unit_name(unit)) + (origin == PlanetOrigin::center ? " center" : " surface"));
+            const double L = metres_per_unit(unit);
+            const double zc = origin == PlanetOrigin::surface ? -6360e3 / L : 0.0;
+            const double zs = zc + 6360e3 / L;  // the surface point above the centre
+            VdbOptions o;
+            o.unit = unit;
+            o.origin = origin;
+            o.region = VdbRegion::box;
+            o.voxel_size = 500.0 / L;  // 500 m
+            o.box = {-1000 / L, -1000 / L, zs - 1000 / L, 1000 / L, 1000 / L, zs + 3000 / L};
+            TempDir dir;
+            export_vdb(scene, o, dir / "t.vdb");
+            const ReadBack rb = read_vdb(dir / "t.vdb");
+            const auto& g = rb.grids.at("rayleigh");
+            EXPECT_NEAR(g->voxelSize()[0], 500.0 / L, 1e-12);
+            EXPECT_EQ(g->metaValue<Vec3d>("airmass:planet_center"), Vec3d(0, 0, zc));
+            // The voxel at the surface point holds density 1; 1 km higher, exp(−1/8).
+            const Coord surface = g->transform().worldToIndexCellCentered(Vec3d(0, 0, zs));
+            EXPECT_NEAR(g->indexToWorld(surface)[2], zs, 1e-9 * std::abs(zs) + 1e-12);
+            auto acc = g->getConstAccessor();
+            EXPECT_NEAR(acc.getValue(surface), 1.0f, 1e-6f);
+            EXPECT_NEAR(acc.getValue(surface.offsetBy(0, 0, 2)), std::exp(-1.0 / 8.0), 1e-6);
+        }
+    }
+}
+
+TEST(Vdb, ViewRegionHoldsOnlyWhatTheCameraCanSee) {
+    Scene scene = load_preset("earth");
+    scene.camera = Camera{};  // ground, +X, 60° over 640 px, 640×360, 200 km
+    VdbOptions o;
+    o.region = VdbRegion::view;
+    o.voxel_size = 4.0;
+    const VdbVolume vol = build_vdb_volume(scene, o);
+    const VdbLayout& L = vol.layout;
+    ASSERT_TRUE(L.view);
+    const double m = std::sqrt(3.0) * 4.0;  // the interpolation margin
+    const double tan_h = std::tan(M_PI / 6), tan_v = tan_h * 360.0 / 640.0;
+    const Vec3d cam(0, 0, 0.002);
+    std::size_t n = 0;
+    for (const auto& tile : vol.tiles)
+        for (const auto& g : tile.grids) {
+            if (!g) continue;
+            for (auto it = g->cbeginValueOn(); it; ++it, ++n) {
+                const Vec3d p = g->indexToWorld(it.getCoord());
+                const Vec3d d = p - cam;
+                ASSERT_LE(d.length(), 200.0 + m) << p;
+                // |y| ≤ x tan_h and |z| ≤ x tan_v, with the plane margins (≤ √3 · voxel)
+                ASSERT_LE(std::abs(d[1]) - d[0] * tan_h, m * std::sqrt(1 + tan_h * tan_h)) << p;
+                ASSERT_LE(std::abs(d[2]) - d[0] * tan_v, m * std::sqrt(1 + tan_v * tan_v)) << p;
+                ASSERT_GE(altitude_km(p), -m - 1e-9) << p;
+                ASSERT_LE(altitude_km(p), 60.0 + 1e-9) << p;
+            }
+        }
+    EXPECT_GT(n, 1000u);
+    // What the camera sees is there: points on the view axis and up the frustum.
+    auto ray = vol.tiles.size() == 1 ? vol.tiles[0].grids[0]->getConstAccessor()
+                                     : openvdb::FloatGrid::create()->getConstAccessor();
+    if (vol.tiles.size() == 1) {
+        for (double x : {20.0, 100.0, 180.0}) EXPECT_TRUE(ray.isValueOn(Coord(int(x / 4), 0, 1))) << x;
+        EXPECT_TRUE(ray.isValueOn(Coord(40, 0, 10)));   // 160 km out, 40 km up (inside the 17.6° half-height)
+        EXPECT_FALSE(ray.isValueOn(Coord(-10, 0, 2)));  // behind the camera
+        EXPECT_FALSE(ray.isValueOn(Coord(25, 20, 2)));  // 100 km out, 80 km aside: outside 30°
+    }
+}
+
+TEST(Vdb, ViewFromOrbitSkipsThePlanetsHiddenSide) {
+    Scene scene = load_preset("earth");
+    Camera cam;
+    cam.position_m[2] = 2000e3;  // 2000 km up
+    cam.direction[0] = 0;
+    cam.direction[2] = -1;  // looking straight down
+    cam.up[0] = 1;
+    cam.up[2] = 0;
+    cam.fov_deg = 120;
+    cam.width = cam.height = 64;
+    cam.max_distance_m = 30000e3;
+    scene.camera = cam;
+    VdbOptions o;
+    o.region = VdbRegion::view;
+    o.voxel_size = 60.0;
+    o.tile_voxels = -1;
+    const VdbVolume vol = build_vdb_volume(scene, o);
+    const auto& L = vol.layout;
+    const Vec3d c = L.planet_center, eye = L.view->position;
+    const double occluder = 6360.0 - std::sqrt(3.0) * 60.0;
+    std::size_t n = 0;
+    for (const auto& g : vol.tiles[0].grids) {
+        if (!g) continue;
+        for (auto it = g->cbeginValueOn(); it; ++it, ++n) {
+            const Vec3d p = g->indexToWorld(it.getCoord());
+            // the segment eye → p does not pass through the (margin-shrunk) planet
+            const Vec3d d = p - eye, f = eye - c;
+            const double t = std::clamp(-f.dot(d) / d.dot(d), 0.0, 1.0);
+            ASSERT_GE((f + d * t).length(), occluder - 1e-9) << p;
+            ASSERT_GT(p[2], -6360.0) << p;  // nothing on the far hemisphere
+        }
+    }
+    EXPECT_GT(n, 100u);
+}
+
+TEST(Vdb, TilesPartitionTheVoxelsOfTheSingleGrid) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o;
+    o.region = VdbRegion::planet;
+    o.voxel_size = 50.0;
+    o.tile_voxels = -1;
+    const VdbVolume one = build_vdb_volume(scene, o);
+    o.tile_voxels = 64;
+    TempDir dir;
+    const VdbStats tiled = export_vdb(scene, o, dir / "shell.vdb");
+    ASSERT_GT(tiled.tiles, 1u);
+    EXPECT_LT(tiled.dense_bytes, one.stats.dense_bytes);
+    EXPECT_EQ(tiled.dense_bytes_untiled, one.stats.dense_bytes);
+    EXPECT_EQ(tiled.active_voxels, one.stats.active_voxels);
+    // Files: <stem>.NNN.tile.vdb (no digits before the extension) and the manifest.
+    ASSERT_EQ(tiled.files.size(), tiled.tiles + 1);
+    EXPECT_EQ(tiled.files[0].filename(), "shell.000.tile.vdb");
+    EXPECT_EQ(tiled.files.back().filename(), "shell.tiles.json");
+    EXPECT_FALSE(fs::exists(dir / "shell.vdb"));
+    const auto manifest = nlohmann::json::parse(std::ifstream(tiled.files.back()));
+    EXPECT_EQ(manifest["tiles"].size(), tiled.tiles);
+    // Union of the tiles = the single grid, and no voxel twice.
+    for (std::size_t c = 0; c < one.layout.constituents.size(); ++c) {
+        const std::string name = one.layout.constituents[c].name;
+        SCOPED_TRACE(name);
+        auto seen = openvdb::BoolGrid::create(false);
+        auto seen_acc = seen->getAccessor();
+        for (std::size_t t = 0; t < tiled.tiles; ++t) {
+            const ReadBack rb = read_vdb(tiled.files[t]);
+            if (!rb.grids.count(name)) continue;
+            const auto& g = rb.grids.at(name);
+            EXPECT_EQ(g->metaValue<int>("airmass:tile"), int(t));
+            EXPECT_EQ(manifest["tiles"][t]["grids"][name]["active_voxels"].get<std::uint64_t>(), g->activeVoxelCount());
+            auto ref = one.tiles[0].grids[c]->getConstAccessor();
+            for (auto it = g->cbeginValueOn(); it; ++it) {
+                ASSERT_FALSE(seen_acc.isValueOn(it.getCoord())) << "twice: " << it.getCoord();
+                seen_acc.setValueOn(it.getCoord(), true);
+                ASSERT_EQ(*it, ref.getValue(it.getCoord()));
+            }
+        }
+        EXPECT_EQ(seen->activeVoxelCount(), one.tiles[0].grids[c]->activeVoxelCount());
+    }
+}
+
+TEST(Vdb, AutomaticTilingSkipsTheEmptyInteriorOfTheShell) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o;
+    o.region = VdbRegion::planet;
+    o.voxel_size = 30.0;  // the shell is 2 voxels thick: one box is mostly empty
+    VdbRunOptions run;
+    run.dry_run = true;
+    const VdbStats s = export_vdb(scene, o, "unused.vdb", run);
+    EXPECT_GT(s.tiles, 1u);
+    EXPECT_LE(s.tiles, std::size_t(o.max_tiles));
+    EXPECT_LT(s.dense_bytes, s.dense_bytes_untiled * 6 / 10);
+}
+
+TEST(Vdb, AutomaticVoxelSizeFollowsScaleHeightsAndTheCamera) {
+    Scene scene = load_preset("earth");
+    scene.camera = Camera{};
+    VdbOptions o;
+    o.region = VdbRegion::view;
+    EXPECT_NEAR(auto_voxel_size(scene, o), 0.6, 1e-12);  // half the Mie scale height, km
+    o.unit = LengthUnit::m;
+    EXPECT_NEAR(auto_voxel_size(scene, o), 600.0, 1e-9);
+    // From 10 000 km up a 640-px, 60° camera resolves 2·tan30°/640 · (10000 − 60) km ≈ 17.9 km.
+    scene.camera->position_m[2] = 10000e3;
+    o.unit = LengthUnit::km;
+    EXPECT_NEAR(auto_voxel_size(scene, o), 2 * std::tan(M_PI / 6) / 640 * (16360.0 - 6420.0), 1e-9);
+    // The whole shell: coarse enough for the dense-box budget, finer when the budget grows.
+    VdbOptions p;
+    p.region = VdbRegion::planet;
+    const double v_planet = auto_voxel_size(scene, p);
+    EXPECT_GT(v_planet, 10.0);
+    EXPECT_LT(v_planet, 30.0);
+    p.max_dense_mb *= 8;
+    EXPECT_NEAR(auto_voxel_size(scene, p), v_planet / 2, 1e-9 * v_planet);  // dense ∝ v⁻³
+}
+
+TEST(Vdb, ThresholdFollowsTheToleranceOnOpticalDepth) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o = small_box();
+    const VdbLayout L = resolve_vdb_layout(scene, o);
+    const double chord = 2 * std::sqrt(6420.0 * 6420.0 - 6360.0 * 6360.0);
+    for (const auto& c : L.constituents) {
+        const double ext = std::max({c.scattering_rgb[0] + c.absorption_rgb[0], c.scattering_rgb[1] + c.absorption_rgb[1],
+                                     c.scattering_rgb[2] + c.absorption_rgb[2]});
+        EXPECT_NEAR(c.density_threshold * ext * chord, 1e-4, 1e-16) << c.name;
+    }
+    o.tolerance = 0;
+    for (const auto& c : resolve_vdb_layout(scene, o).constituents) EXPECT_EQ(c.density_threshold, 0.0);
+}
+
+// ---- bad input: clear errors, no file left behind -------------------------------------------
+
+namespace {
+
+void expect_error_and_no_file(const Scene& scene, const VdbOptions& o, const std::string& fragment,
+                              const fs::path& out = {}) {
+    TempDir dir;
+    const fs::path path = out.empty() ? dir / "x.vdb" : out;
+    try {
+        export_vdb(scene, o, path);
+        ADD_FAILURE() << "no error; expected one mentioning '" << fragment << "'";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(dir.entries().empty()) << "left " << dir.entries().front();
+}
+
+}  // namespace
+
+TEST(VdbBadInput, VoxelSizeMustBePositive) {
+    const Scene scene = load_preset("earth");
+    for (double v : {0.0, -1.0, std::nan(""), double(INFINITY)}) {
+        VdbOptions o = small_box();
+        o.voxel_size = v;
+        expect_error_and_no_file(scene, o, "--voxel-size");
+    }
+}
+
+TEST(VdbBadInput, RegionOutsideTheAtmosphere) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o = small_box();
+    o.box = {0, 0, 100, 10, 10, 110};  // 100–110 km up: above the 60-km top
+    expect_error_and_no_file(scene, o, "region outside the atmosphere");
+    o.box = {-10, -10, -500, 10, 10, -400};  // inside the planet
+    expect_error_and_no_file(scene, o, "region outside the atmosphere");
+    // A camera in space looking away from the planet.
+    Scene s2 = scene;
+    s2.camera = Camera{};
+    s2.camera->position_m[2] = 1000e3;
+    s2.camera->direction[0] = 0;
+    s2.camera->direction[2] = 1;
+    s2.camera->up[0] = 1;
+    s2.camera->up[2] = 0;
+    s2.camera->max_distance_m = 5000e3;
+    VdbOptions v;
+    v.region = VdbRegion::view;
+    v.voxel_size = 20.0;
+    expect_error_and_no_file(s2, v, "region outside the atmosphere");
+}
+
+TEST(VdbBadInput, CameraInsideThePlanetOrMissing) {
+    Scene scene = load_preset("earth");
+    VdbOptions o;
+    o.region = VdbRegion::view;
+    o.voxel_size = 4.0;
+    expect_error_and_no_file(scene, o, "[camera]");
+    scene.camera = Camera{};
+    scene.camera->position_m[2] = -10.0;
+    expect_error_and_no_file(scene, o, "camera inside the planet");
+}
+
+TEST(VdbBadInput, UnwritableOutput) {
+    const Scene scene = load_preset("earth");
+    expect_error_and_no_file(scene, small_box(), "does not exist", "/nonexistent-airmass-dir/x.vdb");
+    {
+        TempDir dir;
+        fs::create_directory(dir / "sub.vdb");
+        try {
+            export_vdb(scene, small_box(), dir / "sub.vdb");
+            ADD_FAILURE() << "writing over a directory succeeded";
+        } catch (const VdbError& e) {
+            EXPECT_NE(std::string(e.what()).find("directory"), std::string::npos) << e.what();
+        }
+    }
+    if (::geteuid() != 0) {  // root writes anywhere
+        TempDir dir;
+        fs::create_directory(dir / "ro");
+        fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+        expect_error_and_no_file(scene, small_box(), "not writable", dir / "ro" / "x.vdb");
+        fs::permissions(dir / "ro", fs::perms::owner_all);
+        EXPECT_TRUE(fs::is_empty(dir / "ro"));
+    }
+}
+
+TEST(VdbBadInput, DenseBoxLimitRefusesWithASuggestion) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o = small_box();
+    o.max_dense_mb = 0.01;
+    expect_error_and_no_file(scene, o, "--max-dense-mb");
+    try {
+        build_vdb_volume(scene, o);
+    } catch (const VdbError& e) {
+        EXPECT_NE(std::string(e.what()).find("use --voxel-size"), std::string::npos) << e.what();
+    }
+    o.max_dense_mb = 1024;
+    o.max_memory_mb = 0.01;
+    expect_error_and_no_file(scene, o, "--max-memory-mb");
+}
+
+TEST(VdbBadInput, CancelledBeforeWritingLeavesNothing) {
+    const Scene scene = load_preset("earth");
+    TempDir dir;
+    CancelFlag cancel;
+    cancel.request();
+    VdbRunOptions run;
+    run.cancel = &cancel;
+    EXPECT_THROW(export_vdb(scene, small_box(), dir / "c.vdb", run), Cancelled);
+    EXPECT_TRUE(dir.entries().empty());
+}
+
+TEST(VdbBadInput, OtherOptions) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o = small_box();
+    o.box = {10, -10, 0, -10, 10, 60};
+    expect_error_and_no_file(scene, o, "--box: xmin");
+    o = small_box();
+    o.tolerance = -1;
+    expect_error_and_no_file(scene, o, "--tolerance");
+    o = small_box();
+    o.tile_voxels = 12;
+    expect_error_and_no_file(scene, o, "--tile-voxels");
+    TempDir dir;
+    EXPECT_THROW(export_vdb(scene, small_box(), dir / "x.exr"), VdbError);
+}
+
+// ---- analytic descriptions ---------------------------------------------------------------------
+
+TEST(VdbAnalytic, JsonDescribesEveryActiveConstituentInTheChosenUnit) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o;
+    const auto j = nlohmann::json::parse(analytic_density_json(scene, o));
+    EXPECT_EQ(j["length_unit"], "km");
+    EXPECT_DOUBLE_EQ(j["planet_radius"].get<double>(), 6360.0);
+    ASSERT_EQ(j["constituents"].size(), 3u);
+    for (const auto& c : j["constituents"]) {
+        const Constituent& sc = constituent(scene, c["name"]);
+        const double lambdas[3] = {680, 550, 440};
+        for (int i = 0; i < 3; ++i)
+            EXPECT_NEAR(c["extinction_rgb"][i].get<double>(),
+                        (sc.scattering.at(lambdas[i]) + sc.absorption.at(lambdas[i])) * 1000.0, 1e-15);
+    }
+    EXPECT_DOUBLE_EQ(j["constituents"][1]["profile"]["scale_height"].get<double>(), 1.2);
+    o.unit = LengthUnit::m;
+    const auto jm = nlohmann::json::parse(analytic_density_json(scene, o));
+    EXPECT_DOUBLE_EQ(jm["constituents"][0]["profile"]["scale_height"].get<double>(), 8000.0);
+}
+
+TEST(VdbAnalytic, PovIncludeDeclaresDensityFunctionsAndMedia) {
+    const Scene scene = load_preset("earth");
+    const std::string inc = pov_include(scene, VdbOptions{});
+    for (const char* s : {"#declare Airmass_rayleigh_Density = function(x, y, z)", "#declare Airmass_ozone_Pattern",
+                          "#macro Airmass_mie_Media()", "scattering { 4, Airmass_rayleigh_Scattering",
+                          "eccentricity Airmass_mie_G", "absorption Airmass_ozone_Absorption",
+                          "#declare Airmass_PlanetCenter = <0, -6360, 0>;", "#declare Airmass_Container"})
+        EXPECT_NE(inc.find(s), std::string::npos) << s;
+}
+
+TEST(VdbAnalytic, Df3IsBigEndian32BitWithAZeroBorder) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o = small_box();
+    TempDir dir;
+    const auto files = export_df3(scene, o, dir / "atm");
+    ASSERT_EQ(files.size(), 4u);  // three grids + the include
+    std::ifstream f(dir / "atm.rayleigh.df3", std::ios::binary);
+    std::vector<unsigned char> d((std::istreambuf_iterator<char>(f)), {});
+    ASSERT_GE(d.size(), 6u);
+    const int nx = d[0] << 8 | d[1], ny = d[2] << 8 | d[3], nz = d[4] << 8 | d[5];
+    ASSERT_EQ(d.size(), 6u + std::size_t(nx) * ny * nz * 4);
+    auto at = [&](int i, int j, int k) {
+        const std::size_t o4 = 6 + 4 * (std::size_t(k) * ny * nx + std::size_t(j) * nx + i);
+        return std::uint32_t(d[o4]) << 24 | std::uint32_t(d[o4 + 1]) << 16 | std::uint32_t(d[o4 + 2]) << 8 | d[o4 + 3];
+    };
+    std::uint32_t vmax = 0;
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                const bool border = i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1;
+                if (border) {
+                    ASSERT_EQ(at(i, j, k), 0u) << i << "," << j << "," << k;
+                }
+                vmax = std::max(vmax, at(i, j, k));
+            }
+    EXPECT_EQ(vmax, 0xffffffffu);
+}
+
+// ---- the voxel-size trade --------------------------------------------------------------------
+
+TEST(VdbTrade, GridOpticalDepthConvergesToTheAnalyticValue) {
+    const Scene scene = load_preset("earth");
+    VdbTradeOptions t;
+    t.voxel_sizes = {8.0, 2.0};
+    t.measure_view_region = false;
+    const auto rows = run_vdb_trade(scene, t).rays;
+    ASSERT_EQ(rows.size(), 2 * vdb_trade_rays(scene).size());
+    for (const auto& r : rows) {
+        SCOPED_TRACE(r.ray + " @ " + std::to_string(r.voxel_size));
+        EXPECT_TRUE(std::isfinite(r.tau_vdb[1]) && std::isfinite(r.tau_ref[1]));
+        EXPECT_GT(r.tau_ref[1], 0.0);
+        EXPECT_LT(r.tau_rel_error_max, 0.5);
+    }
+    // Each ray's error shrinks with the voxel (trilinear: O(v²) on smooth profiles).
+    for (std::size_t i = 0; i < rows.size() / 2; ++i) {
+        const auto& coarse = rows[i];
+        const auto& fine = rows[i + rows.size() / 2];
+        ASSERT_EQ(coarse.ray, fine.ray);
+        EXPECT_LT(fine.tau_rel_error_max, coarse.tau_rel_error_max) << coarse.ray;
+    }
+}

@@ -1,0 +1,77 @@
+// The voxel-size trade (`airmass report vdb`): how much optical depth and
+// transmittance a voxel size costs, against what it costs in voxels, memory, dense
+// boxes, file size and build time.
+//
+// Accuracy: a fixed set of rays in the scene's frame (unit km) — zenith, slant (75°
+// from the zenith) and horizon from the ground, the horizon from a 1.3-km hill, and the
+// limb seen from orbit (tangent at 10.37 km) — all in the plane y = 0.1234 km (off the
+// voxel lattice). For each voxel size the grids of a thin box
+// ("slab") holding the rays are built with the exporter itself; the optical depth
+// through them is the exact integral of OpenVDB's trilinear interpolant (3-point
+// Gauss–Legendre between the ray's crossings of the voxel lattice planes, where the
+// interpolant is a cubic), compared with the analytic reference: adaptive quadrature
+// of DensityProfile::at along the same segment (profile_segment_mass_reference).
+//
+// Cost: per voxel size, the slab and the Earth view region of the issue (ground
+// camera, +X, 60°, 640×360, 200 km) are built and written to a scratch file.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "airmass/vdb_export.hpp"
+
+namespace airmass {
+
+struct VdbTradeRay {
+    std::string name;
+    std::array<double, 3> origin_km;  // world frame, origin on the surface, planet centre at (0, 0, −R)
+    std::array<double, 3> direction;  // unit
+};
+
+// The fixed rays for a scene (its planet radius and atmosphere top).
+std::vector<VdbTradeRay> vdb_trade_rays(const Scene& scene);
+
+struct VdbTradeOptions {
+    std::vector<double> voxel_sizes{0.25, 0.5, 1, 2, 4, 8};  // km
+    double tolerance = VdbOptions{}.tolerance;
+    bool measure_view_region = true;      // build and write the Earth view region per voxel size
+    std::filesystem::path scratch_dir;    // for the timed writes (empty: the system temp dir)
+    VdbProgress progress;                  // fraction of voxel sizes done
+    const CancelFlag* cancel = nullptr;
+};
+
+struct VdbTradeRayRow {
+    double voxel_size = 0;  // km
+    std::string ray;
+    std::array<double, 3> tau_ref{}, tau_vdb{};  // RGB optical depth
+    double tau_rel_error_max = 0;                 // max over RGB of |τ_vdb − τ_ref| / τ_ref
+    double transmittance_abs_error_max = 0;       // max over RGB of |T_vdb − T_ref|
+};
+
+struct VdbTradeCostRow {
+    double voxel_size = 0;  // km
+    std::string region;     // "slab" or "view-200km"
+    bool refused = false;   // the exporter refused (limit); message in `note`
+    std::string note;
+    std::uint64_t active_voxels = 0, memory_bytes = 0, dense_bytes = 0, file_bytes = 0;
+    std::size_t tiles = 0;
+    double build_seconds = 0, write_seconds = 0;
+};
+
+struct VdbTradeResult {
+    std::vector<VdbTradeRayRow> rays;    // voxel-size major, rays in vdb_trade_rays order
+    std::vector<VdbTradeCostRow> costs;  // voxel-size major
+};
+
+VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options);
+
+// vdb_trade_rays.csv, vdb_trade_costs.csv and the Markdown tables of docs/vdb.md.
+std::string vdb_trade_rays_csv(const VdbTradeResult& r);
+std::string vdb_trade_costs_csv(const VdbTradeResult& r);
+std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene_name);
+
+}  // namespace airmass

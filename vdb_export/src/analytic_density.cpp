@@ -1,0 +1,180 @@
+// The densities in closed form: a JSON description (for the Blender add-on's Cycles
+// node tree) and a POV-Ray include of function patterns. Both carry exactly what the
+// grids' metadata carries, so a renderer can use either path (docs/vdb.md).
+#include <cstdio>
+#include <sstream>
+
+#include "airmass/vdb_grids.hpp"
+#include "vdb_format.hpp"
+
+#ifndef AIRMASS_VERSION
+#define AIRMASS_VERSION "unknown"
+#endif
+
+namespace airmass {
+
+using detail::fmt;
+
+namespace {
+
+// Full precision for numbers that end up in shaders.
+std::string num(double x) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.9g", x);
+    return buf;
+}
+
+nlohmann::json rgb(const std::array<double, 3>& a) { return nlohmann::json::array({a[0], a[1], a[2]}); }
+
+// The profile as a POV-Ray expression of the altitude `h` (an SDL expression string,
+// in the unit), zero outside the constituent's support and above `top`.
+// POV-Ray's select(a, b, c) is b when a < 0, else c.
+std::string pov_profile_expression(const DensityProfile& p, double L, double top, const std::string& h) {
+    std::string body;
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential:
+            body = "exp(-(" + h + " - " + num(p.reference_altitude_m / L) + ") / " + num(p.scale_height_m / L) + ")";
+            break;
+        case DensityProfile::Kind::tent: {
+            const double b = p.bottom_m / L, k = p.peak_m / L, t = p.top_m / L;
+            body = "select(" + h + " - " + num(b) + ", 0, select(" + h + " - " + num(k) + ", (" + h + " - " + num(b) +
+                   ") / " + num(k - b) + ", select(" + h + " - " + num(t) + ", (" + num(t) + " - " + h + ") / " +
+                   num(t - k) + ", 0)))";
+            break;
+        }
+        case DensityProfile::Kind::piecewise_linear: {
+            // Nested selects from the last piece inwards; 0 outside the knots.
+            if (p.knots.empty()) return "0";
+            std::string e = "select(" + h + " - " + num(p.knots.back().first / L) + ", " + num(p.knots.back().second) +
+                            ", 0)";
+            for (std::size_t i = p.knots.size() - 1; i-- > 0;) {
+                const double h0 = p.knots[i].first / L, h1 = p.knots[i + 1].first / L;
+                const double r0 = p.knots[i].second, r1 = p.knots[i + 1].second;
+                const std::string piece =
+                    h1 > h0 ? num(r0) + " + (" + h + " - " + num(h0) + ") * " + num((r1 - r0) / (h1 - h0)) : num(r1);
+                e = "select(" + h + " - " + num(h1) + ", " + piece + ", " + e + ")";
+            }
+            body = "select(" + h + " - " + num(p.knots.front().first / L) + ", 0, " + e + ")";
+            break;
+        }
+        case DensityProfile::Kind::constant: {
+            const double b = p.bottom_m / L;
+            const double t = p.top_m > p.bottom_m ? p.top_m / L : top;
+            body = "select(" + h + " - " + num(b) + ", 0, select(" + h + " - " + num(t) + ", " + num(p.value) + ", 0))";
+            break;
+        }
+    }
+    return "select(" + h + " - " + num(top) + ", " + body + ", 0)";
+}
+
+int pov_scattering_type(PhaseFunction::Kind k) {
+    switch (k) {
+        case PhaseFunction::Kind::rayleigh:
+        case PhaseFunction::Kind::rayleigh_modified: return 4;  // Rayleigh
+        case PhaseFunction::Kind::cornette_shanks:
+        case PhaseFunction::Kind::henyey_greenstein: return 5;  // Henyey–Greenstein
+        case PhaseFunction::Kind::isotropic: return 1;
+    }
+    return 1;
+}
+
+std::string pov_rgb(const std::array<double, 3>& a, double scale = 1.0) {
+    return "rgb <" + num(a[0] * scale) + ", " + num(a[1] * scale) + ", " + num(a[2] * scale) + ">";
+}
+
+}  // namespace
+
+std::string analytic_density_json(const Scene& scene, const VdbOptions& options) {
+    const VdbLayout layout = resolve_vdb_layout(scene, options);
+    using nlohmann::json;
+    json constituents = json::array();
+    for (const auto& c : layout.constituents) {
+        std::array<double, 3> ext{};
+        for (int i = 0; i < 3; ++i) ext[i] = c.scattering_rgb[i] + c.absorption_rgb[i];
+        constituents.push_back(json{{"name", c.name},
+                                    {"profile", detail::profile_json(c.source->profile, layout.metres_per_unit)},
+                                    {"density_max", c.density_max},
+                                    {"scattering_rgb", rgb(c.scattering_rgb)},
+                                    {"absorption_rgb", rgb(c.absorption_rgb)},
+                                    {"extinction_rgb", rgb(ext)},
+                                    {"phase", detail::phase_name(c.source->phase.kind)},
+                                    {"g", c.source->phase.g}});
+    }
+    const json j{
+        {"format", "airmass-analytic-density"},
+        {"format_version", detail::kVdbFormatVersion},
+        {"airmass_version", AIRMASS_VERSION},
+        {"scene_name", layout.scene_name},
+        {"length_unit", std::string(length_unit_name(options.unit))},
+        {"planet_radius", layout.planet_radius},
+        {"planet_center", {layout.planet_center[0], layout.planet_center[1], layout.planet_center[2]}},
+        {"atmosphere_top", layout.atmosphere_top},
+        {"altitude", "h = |p - planet_center| - planet_radius; density 0 where h > atmosphere_top - planet_radius"},
+        {"spectral_basis", layout.spectral_basis},
+        {"rgb_wavelengths_nm", rgb(layout.rgb_wavelengths_nm)},
+        {"constituents", constituents}};
+    return j.dump(2) + "\n";
+}
+
+std::string pov_include(const Scene& scene, const VdbOptions& options) {
+    const VdbLayout layout = resolve_vdb_layout(scene, options);
+    const double L = layout.metres_per_unit;
+    const double R = layout.planet_radius, top_alt = layout.atmosphere_top - layout.planet_radius;
+    const std::string unit(length_unit_name(options.unit));
+    // POV-Ray is y-up and left-handed: POV (x, y, z) = airmass (x, z, y). Swapping two
+    // axes turns the right-handed Z-up frame into POV's without mirroring the scene.
+    const auto& c0 = layout.planet_center;
+    std::ostringstream o;
+    o << "// Generated by airmass " << AIRMASS_VERSION << " (`airmass vdb --pov`): analytic densities of scene '"
+      << layout.scene_name << "'.\n"
+      << "// Units: 1 POV unit = 1 " << unit << ". Frame: POV-Ray's y-up, i.e. POV <x, y, z> = airmass (x, z, y).\n"
+      << "// Densities are relative (1 at each profile's reference); coefficients are per " << unit
+      << " at density 1,\n"
+      << "// evaluated at " << fmt(layout.rgb_wavelengths_nm[0]) << "/" << fmt(layout.rgb_wavelengths_nm[1]) << "/"
+      << fmt(layout.rgb_wavelengths_nm[2]) << " nm (" << layout.spectral_basis << ").\n"
+      << "// POV-Ray wraps pattern values above 1 (fmod 1.00001): use the *_Pattern functions, which are\n"
+      << "// normalised to [0, 1], and multiply the media colours by *_DensityMax (the macros do).\n\n"
+      << "#declare Airmass_PlanetRadius = " << num(R) << ";\n"
+      << "#declare Airmass_AtmosphereTop = " << num(layout.atmosphere_top) << ";\n"
+      << "#declare Airmass_PlanetCenter = <" << num(c0[0]) << ", " << num(c0[2]) << ", " << num(c0[1]) << ">;\n"
+      << "#declare Airmass_Altitude = function(x, y, z) { sqrt((x - " << num(c0[0]) << ")*(x - " << num(c0[0])
+      << ") + (y - " << num(c0[2]) << ")*(y - " << num(c0[2]) << ") + (z - " << num(c0[1]) << ")*(z - " << num(c0[1])
+      << ")) - " << num(R) << " }\n\n";
+    for (const auto& c : layout.constituents) {
+        const std::string n = "Airmass_" + c.name;
+        const double dmax = c.density_max > 0 ? c.density_max : 1.0;
+        o << "// " << c.name << ": " << detail::profile_json(c.source->profile, L).dump() << "\n"
+          << "#declare " << n << "_Density = function(x, y, z) { "
+          << pov_profile_expression(c.source->profile, L, top_alt, "Airmass_Altitude(x, y, z)") << " }\n"
+          << "#declare " << n << "_DensityMax = " << num(dmax) << ";\n"
+          << "#declare " << n << "_Pattern = function(x, y, z) { min(1, max(0, " << n << "_Density(x, y, z) / " << n
+          << "_DensityMax)) }\n"
+          << "#declare " << n << "_Scattering = " << pov_rgb(c.scattering_rgb) << ";\n"
+          << "#declare " << n << "_Absorption = " << pov_rgb(c.absorption_rgb) << ";\n"
+          << "#declare " << n << "_G = " << num(c.source->phase.g) << ";\n"
+          << "#macro " << n << "_Media()\n"
+          << "  media {\n"
+          << "    method 3 intervals 1 samples 32\n";
+        const bool scatters = c.scattering_rgb[0] > 0 || c.scattering_rgb[1] > 0 || c.scattering_rgb[2] > 0;
+        const bool absorbs = c.absorption_rgb[0] > 0 || c.absorption_rgb[1] > 0 || c.absorption_rgb[2] > 0;
+        if (scatters) {
+            o << "    scattering { " << pov_scattering_type(c.source->phase.kind) << ", " << n << "_Scattering * " << n
+              << "_DensityMax";
+            if (pov_scattering_type(c.source->phase.kind) == 5) o << " eccentricity " << n << "_G";
+            o << " }\n";
+        }
+        if (absorbs) o << "    absorption " << n << "_Absorption * " << n << "_DensityMax\n";
+        o << "    density { function { " << n << "_Pattern(x, y, z) } }\n"
+          << "  }\n"
+          << "#end\n\n";
+    }
+    o << "// The atmosphere's container: media are evaluated inside it (hollow, invisible surface).\n"
+      << "#declare Airmass_Container = sphere { Airmass_PlanetCenter, Airmass_AtmosphereTop\n"
+      << "  hollow pigment { rgbt 1 }\n"
+      << "  interior {";
+    for (const auto& c : layout.constituents) o << " Airmass_" << c.name << "_Media()";
+    o << " }\n}\n";
+    return o.str();
+}
+
+}  // namespace airmass

@@ -1,0 +1,61 @@
+// Membership in the exported region: the atmosphere shell, intersected with the
+// camera's visible volume (view) or an explicit box (box).
+//
+// A voxel is kept when its centre lies in the region grown by the reach of trilinear
+// interpolation (one voxel along each axis), so that every point of the region is
+// interpolated from correct neighbours rather than from inactive zeros:
+//   * planes (frustum sides): margin voxel · ‖n‖₁ along the plane normal n;
+//   * spheres (ground, max distance, the occluding planet): margin √3 · voxel;
+//   * the box: one voxel along each axis;
+//   * the top of the atmosphere: no margin — the model's density is zero above it.
+#pragma once
+
+#include <array>
+
+#include "airmass/vdb_grids.hpp"
+
+namespace airmass::detail {
+
+class VdbRegionTest {
+public:
+    explicit VdbRegionTest(const VdbLayout& layout);
+
+    // Shell radii (unit) holding the union of the constituents' altitude bands.
+    double shell_min() const { return shell_min_; }
+    double shell_max() const { return shell_max_; }
+
+    // Exact test of one voxel centre against everything but the shell (the caller
+    // tests radii per constituent band). `p` in world units.
+    bool contains_ignoring_shell(const openvdb::Vec3d& p) const;
+
+    // Conservative: false only when no point of the world box [lo, hi] can be in the
+    // region with radius in [r_min, r_max] around the planet centre.
+    bool may_intersect(const openvdb::Vec3d& lo, const openvdb::Vec3d& hi, double r_min, double r_max) const;
+
+private:
+    struct Plane {
+        openvdb::Vec3d n;  // unit normal, pointing into the region
+        double offset;     // inside when n · p ≥ offset
+    };
+    bool box_outside_plane(const Plane& pl, const openvdb::Vec3d& lo, const openvdb::Vec3d& hi) const;
+    bool box_fully_occluded(const openvdb::Vec3d& lo, const openvdb::Vec3d& hi) const;
+    bool occluded(const openvdb::Vec3d& p) const;
+
+    openvdb::Vec3d center_;
+    double shell_min_ = 0, shell_max_ = 0;
+    double sphere_margin_ = 0;
+    // view region
+    bool has_view_ = false;
+    openvdb::Vec3d camera_;
+    double ball_radius_ = 0;  // max distance + margin
+    std::array<Plane, 4> frustum_{};
+    double occluder_radius_ = 0;  // planet radius − margin
+    // shadow cone of the occluder seen from the camera (conservative block culling)
+    openvdb::Vec3d shadow_axis_;
+    double shadow_cos_ = 1, shadow_plane_ = 0;
+    // box region
+    bool has_box_ = false;
+    openvdb::Vec3d box_lo_, box_hi_;
+};
+
+}  // namespace airmass::detail

@@ -1,0 +1,318 @@
+// The voxel-size trade (see vdb_trade.hpp).
+#include "airmass/vdb_trade.hpp"
+
+#include <openvdb/tools/Interpolation.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "airmass/geometry.hpp"
+#include "airmass/optical_depth.hpp"
+#include "airmass/progress.hpp"
+#include "airmass/vdb_grids.hpp"
+#include "vdb_format.hpp"
+
+namespace airmass {
+
+namespace fs = std::filesystem;
+using openvdb::Vec3d;
+
+namespace {
+
+// The rays lie in the plane y = kRayPlaneY, off the lattice planes of every listed
+// voxel size; the limb and the raised horizon sit between voxel layers too. The ground
+// rays start on the layer z = 0 (the surface at the origin always is one): a horizontal
+// ray there samples exact values — the "horizon" row shows that lucky case.
+constexpr double kRayPlaneY = 0.1234;
+constexpr double kLimbTangentAltitudeKm = 10.37;
+constexpr double kHillAltitudeKm = 1.3;
+constexpr double kSlantZenithDeg = 75.0;
+
+Vec3d vec(const std::array<double, 3>& a) { return Vec3d(a[0], a[1], a[2]); }
+
+// Parameters t where the line o + t·d (|d| = 1) crosses the sphere |p − c| = r.
+bool sphere_roots(const Vec3d& o, const Vec3d& d, const Vec3d& c, double r, double& t0, double& t1) {
+    const Vec3d f = o - c;
+    const double b = f.dot(d), q = f.dot(f) - r * r, D = b * b - q;
+    if (D < 0) return false;
+    const double s = std::sqrt(D);
+    t0 = -b - s;
+    t1 = -b + s;
+    return true;
+}
+
+// The part of the ray (t ≥ 0) inside the top sphere: [t_begin, t_end].
+std::pair<double, double> in_atmosphere(const VdbTradeRay& ray, const VdbLayout& L) {
+    double t0, t1;
+    if (!sphere_roots(vec(ray.origin_km), vec(ray.direction), L.planet_center, L.atmosphere_top, t0, t1)) return {0, 0};
+    return {std::max(0.0, t0), std::max(0.0, t1)};
+}
+
+// ∫ of the trilinear interpolant of `grid` along o + t d, t ∈ [a, b], exactly: the
+// interpolant is a cubic in t between crossings of the lattice planes, and 3-point
+// Gauss–Legendre integrates degree 5 exactly.
+double grid_column(const openvdb::FloatGrid& grid, const Vec3d& o, const Vec3d& d, double a, double b) {
+    const double v = grid.voxelSize()[0];
+    std::vector<double> cuts{a, b};
+    for (int ax = 0; ax < 3; ++ax) {
+        if (d[ax] == 0.0) continue;
+        const double pa = (o[ax] + a * d[ax]) / v, pb = (o[ax] + b * d[ax]) / v;
+        for (double k = std::ceil(std::min(pa, pb)); k <= std::floor(std::max(pa, pb)); k += 1.0) {
+            const double t = (k * v - o[ax]) / d[ax];
+            if (t > a && t < b) cuts.push_back(t);
+        }
+    }
+    std::sort(cuts.begin(), cuts.end());
+    auto acc = grid.getConstAccessor();
+    const double x[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, w[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+    double sum = 0;
+    for (std::size_t i = 1; i < cuts.size(); ++i) {
+        const double lo = cuts[i - 1], hi = cuts[i];
+        if (!(hi > lo)) continue;
+        const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+        for (int q = 0; q < 3; ++q) {
+            const Vec3d p = grid.worldToIndex(o + d * (mid + half * x[q]));
+            sum += w[q] * half * double(openvdb::tools::BoxSampler::sample(acc, p));
+        }
+    }
+    return sum;
+}
+
+// Builds and writes `o` to `scratch` (timed by export_vdb), then removes the files.
+VdbStats timed_write(const Scene& scene, const VdbOptions& o, const fs::path& scratch, const CancelFlag* cancel) {
+    VdbRunOptions run;
+    run.cancel = cancel;
+    const VdbStats s = export_vdb(scene, o, scratch, run);
+    for (const auto& f : s.files) fs::remove(f);
+    return s;
+}
+
+std::string g4(double x) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.4g", x);
+    return b;
+}
+std::string e2(double x) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.2e", x);
+    return b;
+}
+
+}  // namespace
+
+std::vector<VdbTradeRay> vdb_trade_rays(const Scene& scene) {
+    const double R = scene.planet.radius_m / 1000.0, top = scene.planet.atmosphere_top_m / 1000.0;
+    const double s = std::sin(kSlantZenithDeg * M_PI / 180.0), c = std::cos(kSlantZenithDeg * M_PI / 180.0);
+    // The limb ray starts well outside the atmosphere, behind its entry point.
+    const double h = kLimbTangentAltitudeKm;
+    const double half_chord = std::sqrt(std::max(0.0, top * top - (R + h) * (R + h)));
+    const double y = kRayPlaneY;
+    return {
+        {"zenith", {0, y, 0}, {0, 0, 1}},
+        {"slant-75", {0, y, 0}, {s, 0, c}},
+        {"horizon", {0, y, 0}, {1, 0, 0}},
+        {"horizon-1.3km", {0, y, kHillAltitudeKm}, {1, 0, 0}},
+        {"limb-10km", {-(half_chord + 1000.0), y, h}, {1, 0, 0}},
+    };
+}
+
+VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options) {
+    for (double v : options.voxel_sizes)
+        if (!(std::isfinite(v) && v > 0))
+            throw VdbError("report vdb: --voxel-sizes: " + detail::fmt(v) + " km: every size must be > 0");
+    const auto rays = vdb_trade_rays(scene);
+    const fs::path scratch_dir = options.scratch_dir.empty() ? fs::temp_directory_path() : options.scratch_dir;
+    const fs::path scratch = scratch_dir / ("airmass-vdb-trade-" + std::to_string(::getpid()) + ".vdb");
+    VdbTradeResult result;
+
+    // The slab: the rays' in-atmosphere segments' bounding box (all in y = 0).
+    VdbOptions slab;
+    slab.region = VdbRegion::box;
+    slab.tolerance = options.tolerance;
+    slab.tile_voxels = -1;
+    slab.max_dense_mb = 1e9;  // measure, do not refuse
+    slab.max_memory_mb = 1e9;
+    {
+        slab.voxel_size = 1.0;
+        slab.box = {-1, -1, 0, 1, 1, 1};  // placeholder: only the planet's frame is needed here
+        const VdbLayout L = resolve_vdb_layout(scene, slab);
+        Vec3d lo(1e300), hi(-1e300);
+        for (const auto& r : rays) {
+            const auto [a, b] = in_atmosphere(r, L);
+            for (double t : {a, b}) {
+                const Vec3d p = vec(r.origin_km) + vec(r.direction) * t;
+                lo = openvdb::math::minComponent(lo, p);
+                hi = openvdb::math::maxComponent(hi, p);
+            }
+        }
+        slab.box = {lo[0], kRayPlaneY - 1e-3, lo[2], hi[0], kRayPlaneY + 1e-3, hi[2]};
+    }
+
+    // Reference optical depths (independent of the voxel size).
+    const VdbLayout ref_layout = [&] {
+        slab.voxel_size = 1.0;
+        return resolve_vdb_layout(scene, slab);
+    }();
+    const double L_m = ref_layout.metres_per_unit;
+    const double top_alt_m = scene.planet.atmosphere_top_m - scene.planet.radius_m;
+    std::vector<std::array<double, 3>> tau_ref(rays.size(), {0, 0, 0});
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+        const auto [a, b] = in_atmosphere(rays[i], ref_layout);
+        const Vec3d o_m = (vec(rays[i].origin_km) - ref_layout.planet_center) * L_m;
+        const auto pr = PlanetRay<double>::from_vectors(scene.planet.radius_m, Vec3<double>(o_m[0], o_m[1], o_m[2]),
+                                                        Vec3<double>(rays[i].direction[0], rays[i].direction[1],
+                                                                     rays[i].direction[2]));
+        for (const auto& c : ref_layout.constituents) {
+            const double mass_unit =
+                profile_segment_mass_reference(c.source->profile, pr, top_alt_m, a * L_m, b * L_m) / L_m;
+            for (int k = 0; k < 3; ++k) tau_ref[i][k] += (c.scattering_rgb[k] + c.absorption_rgb[k]) * mass_unit;
+        }
+    }
+
+    for (std::size_t vi = 0; vi < options.voxel_sizes.size(); ++vi) {
+        const double v = options.voxel_sizes[vi];
+        if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
+        slab.voxel_size = v;
+        VdbRunOptions run;
+        run.cancel = options.cancel;
+        const VdbVolume vol = build_vdb_volume(scene, slab, run);
+        const VdbLayout& L = vol.layout;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            VdbTradeRayRow row;
+            row.voxel_size = v;
+            row.ray = rays[i].name;
+            auto [a, b] = in_atmosphere(rays[i], L);
+            // The interpolant reaches one voxel past the last active voxel.
+            const Vec3d o = vec(rays[i].origin_km), d = vec(rays[i].direction);
+            const double a_ext = a > 0 ? std::max(0.0, a - 2 * v) : 0.0, b_ext = b + 2 * v;
+            for (std::size_t c = 0; c < L.constituents.size(); ++c) {
+                const auto& g = vol.tiles[0].grids[c];
+                if (!g) continue;
+                const double col = grid_column(*g, o, d, a_ext, b_ext);
+                for (int k = 0; k < 3; ++k)
+                    row.tau_vdb[k] += (L.constituents[c].scattering_rgb[k] + L.constituents[c].absorption_rgb[k]) * col;
+            }
+            row.tau_ref = tau_ref[i];
+            for (int k = 0; k < 3; ++k) {
+                if (row.tau_ref[k] > 0)
+                    row.tau_rel_error_max =
+                        std::max(row.tau_rel_error_max, std::abs(row.tau_vdb[k] - row.tau_ref[k]) / row.tau_ref[k]);
+                row.transmittance_abs_error_max = std::max(row.transmittance_abs_error_max,
+                                                           std::abs(std::exp(-row.tau_vdb[k]) - std::exp(-row.tau_ref[k])));
+            }
+            result.rays.push_back(row);
+        }
+        // Costs: the slab as built, and written; then the Earth view region.
+        auto cost_of = [&](const std::string& region, const VdbOptions& o, const Scene& s) {
+            VdbTradeCostRow c;
+            c.voxel_size = v;
+            c.region = region;
+            try {
+                const VdbStats st = timed_write(s, o, scratch, options.cancel);
+                c.active_voxels = st.active_voxels;
+                c.memory_bytes = st.memory_bytes;
+                c.dense_bytes = st.dense_bytes;
+                c.file_bytes = st.file_bytes;
+                c.tiles = st.tiles;
+                c.build_seconds = st.build_seconds;
+                c.write_seconds = st.write_seconds;
+            } catch (const VdbError& e) {
+                c.refused = true;
+                c.note = e.what();
+            }
+            result.costs.push_back(c);
+        };
+        cost_of("slab", slab, scene);
+        if (options.measure_view_region) {
+            Scene s = scene;
+            s.camera = Camera{};
+            VdbOptions view;
+            view.region = VdbRegion::view;
+            view.voxel_size = v;
+            view.tolerance = options.tolerance;
+            view.max_dense_mb = 1e9;
+            view.max_memory_mb = 8192;
+            cost_of("view-200km", view, s);
+        }
+        if (options.progress) options.progress(double(vi + 1) / double(options.voxel_sizes.size()));
+    }
+    return result;
+}
+
+std::string vdb_trade_rays_csv(const VdbTradeResult& r) {
+    std::ostringstream o;
+    o << "voxel_size_km,ray,tau_ref_r,tau_ref_g,tau_ref_b,tau_vdb_r,tau_vdb_g,tau_vdb_b,tau_rel_error_max,"
+         "transmittance_abs_error_max\n";
+    char b[512];
+    for (const auto& x : r.rays) {
+        std::snprintf(b, sizeof b, "%.17g,%s,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", x.voxel_size,
+                      x.ray.c_str(), x.tau_ref[0], x.tau_ref[1], x.tau_ref[2], x.tau_vdb[0], x.tau_vdb[1], x.tau_vdb[2],
+                      x.tau_rel_error_max, x.transmittance_abs_error_max);
+        o << b;
+    }
+    return o.str();
+}
+
+std::string vdb_trade_costs_csv(const VdbTradeResult& r) {
+    std::ostringstream o;
+    o << "voxel_size_km,region,refused,active_voxels,memory_bytes,dense_bytes,file_bytes,tiles,build_s,write_s,"
+         "voxels_per_s\n";
+    char b[512];
+    for (const auto& c : r.costs) {
+        const double rate = c.refused ? 0.0 : double(c.active_voxels) / (c.build_seconds + c.write_seconds);
+        std::snprintf(b, sizeof b, "%.17g,%s,%d,%llu,%llu,%llu,%llu,%zu,%.6f,%.6f,%.6g\n", c.voxel_size, c.region.c_str(),
+                      int(c.refused), (unsigned long long)c.active_voxels, (unsigned long long)c.memory_bytes,
+                      (unsigned long long)c.dense_bytes, (unsigned long long)c.file_bytes, c.tiles, c.build_seconds,
+                      c.write_seconds, rate);
+        o << b;
+    }
+    return o.str();
+}
+
+std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene_name) {
+    std::ostringstream o;
+    std::vector<std::string> rays;
+    std::vector<double> sizes;
+    for (const auto& x : r.rays) {
+        if (std::find(rays.begin(), rays.end(), x.ray) == rays.end()) rays.push_back(x.ray);
+        if (std::find(sizes.begin(), sizes.end(), x.voxel_size) == sizes.end()) sizes.push_back(x.voxel_size);
+    }
+    o << "Scene `" << scene_name << "`. Largest error over R, G, B of the optical depth through the grids "
+      << "(trilinear) against the analytic value; in brackets the transmittance error |ΔT|.\n\n"
+      << "| voxel (km) |";
+    for (const auto& n : rays) o << " " << n << " |";
+    o << "\n|---:|";
+    for (std::size_t i = 0; i < rays.size(); ++i) o << "---:|";
+    o << "\n";
+    for (double v : sizes) {
+        o << "| " << g4(v) << " |";
+        for (const auto& n : rays)
+            for (const auto& x : r.rays)
+                if (x.voxel_size == v && x.ray == n)
+                    o << " " << e2(x.tau_rel_error_max) << " (" << e2(x.transmittance_abs_error_max) << ") |";
+        o << "\n";
+    }
+    o << "\nWhat each voxel size costs: `view-200km` is the Earth view region of a ground camera (60°, 640×360, "
+         "200 km), `slab` the box holding the rays above. Dense = what Blender 3.4 allocates (Σ tile boxes × 4 B).\n\n"
+      << "| voxel (km) | region | active voxels | memory (MiB) | dense (MiB) | file (MiB) | tiles | build (s) | "
+         "write (s) | voxels/s |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const auto& c : r.costs) {
+        if (c.refused) {
+            o << "| " << g4(c.voxel_size) << " | " << c.region << " | refused: " << c.note << " ||||||||\n";
+            continue;
+        }
+        const double M = 1024.0 * 1024.0;
+        o << "| " << g4(c.voxel_size) << " | " << c.region << " | " << c.active_voxels << " | "
+          << g4(double(c.memory_bytes) / M) << " | " << g4(double(c.dense_bytes) / M) << " | "
+          << g4(double(c.file_bytes) / M) << " | " << c.tiles << " | " << g4(c.build_seconds) << " | "
+          << g4(c.write_seconds) << " | " << g4(double(c.active_voxels) / (c.build_seconds + c.write_seconds))
+          << " |\n";
+    }
+    return o.str();
+}
+
+}  // namespace airmass
