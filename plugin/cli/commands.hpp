@@ -22,5 +22,6 @@ void add_vdb_command(CLI::App& app);      // cmd_vdb.cpp
 void add_report_chapman(CLI::App& report);  // cmd_report_chapman.cpp
 void add_report_sky(CLI::App& report);      // cmd_report_sky.cpp
 void add_report_vdb(CLI::App& report);      // cmd_report_vdb.cpp
+void add_report_ms(CLI::App& report);       // cmd_report_ms.cpp
 
 }  // namespace airmass::cli

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
     airmass::cli::add_report_chapman(*report);
     airmass::cli::add_report_sky(*report);
     airmass::cli::add_report_vdb(*report);
+    airmass::cli::add_report_ms(*report);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
