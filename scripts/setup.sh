@@ -15,6 +15,8 @@ PACKAGES=(
   python3-openvdb python3-openimageio
   # renderers
   blender povray
+  # headless X server: the Blender add-on's UI test (tests/blender/run_ui_tests.py) and panel screenshot
+  xvfb
 )
 
 missing=()

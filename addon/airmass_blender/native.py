@@ -1,0 +1,520 @@
+"""ctypes binding of libairmass_c (plugin/capi/include/airmass/airmass_c.h).
+
+Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and from
+plain Python tests. The library is looked up next to this file (the add-on zip bundles
+it) unless the environment variable AIRMASS_C_LIBRARY names another file.
+
+Every wrapper raises NativeError (with the library's status and message) on failure, so
+callers report one exception type. The library never aborts; a wrapper never leaves a
+library-allocated string unfreed.
+"""
+
+import ctypes
+import json
+import os
+import threading
+
+ABI_VERSION = 1
+LIBRARY_ENV = "AIRMASS_C_LIBRARY"
+LIBRARY_NAME = "libairmass_c.so"
+
+OK = 0
+INVALID_ARGUMENT = 1
+SCENE_ERROR = 2
+SETTINGS_ERROR = 3
+IO_ERROR = 4
+CANCELLED = 5
+UNSUPPORTED = 6
+INTERNAL_ERROR = 99
+
+_MESSAGE_SIZE = 4096
+_NAN = float("nan")
+
+
+class NativeError(RuntimeError):
+    """A failure reported by libairmass_c (or the failure to load it)."""
+
+    def __init__(self, status, message):
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+    @property
+    def cancelled(self):
+        return self.status == CANCELLED
+
+
+class LibraryLoadError(NativeError):
+    def __init__(self, message):
+        super().__init__(-1, message)
+
+
+# ---- struct mirrors (field order and types exactly as in airmass_c.h) ------------------------
+
+class ConstituentOverride(ctypes.Structure):
+    _fields_ = [
+        ("name", ctypes.c_char_p),
+        ("enabled", ctypes.c_int32),
+        ("density_scale", ctypes.c_double),
+        ("scale_height_m", ctypes.c_double),
+    ]
+
+
+class SceneSpec(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("toml", ctypes.c_char_p),
+        ("preset", ctypes.c_char_p),
+        ("source_name", ctypes.c_char_p),
+        ("sun_elevation_deg", ctypes.c_double),
+        ("sun_rotation_deg", ctypes.c_double),
+        ("altitude_m", ctypes.c_double),
+        ("planet_radius_m", ctypes.c_double),
+        ("atmosphere_top_m", ctypes.c_double),
+        ("ground_albedo", ctypes.c_double),
+        ("basis", ctypes.c_int32),
+        ("constituent_count", ctypes.c_uint32),
+        ("constituents", ctypes.POINTER(ConstituentOverride)),
+        ("has_camera", ctypes.c_int32),
+        ("camera_position_m", ctypes.c_double * 3),
+        ("camera_direction", ctypes.c_double * 3),
+        ("camera_up", ctypes.c_double * 3),
+        ("camera_fov_deg", ctypes.c_double),
+        ("camera_max_distance_m", ctypes.c_double),
+        ("camera_width", ctypes.c_int32),
+        ("camera_height", ctypes.c_int32),
+    ]
+
+
+PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_int32, ctypes.c_void_p, ctypes.c_double)
+
+
+class Job(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("progress", PROGRESS_FN),
+        ("user", ctypes.c_void_p),
+        ("cancel", ctypes.c_void_p),
+    ]
+
+
+class SkyOptions(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("width", ctypes.c_int32),
+        ("height", ctypes.c_int32),
+        ("view_samples", ctypes.c_int32),
+        ("chapman", ctypes.c_char_p),
+        ("sun_disc", ctypes.c_int32),
+        ("upper_only", ctypes.c_int32),
+        ("threads", ctypes.c_int32),
+        ("grid", ctypes.c_int32),
+    ]
+
+
+class SunLight(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("direction", ctypes.c_double * 3),
+        ("irradiance_rgb", ctypes.c_double * 3),
+        ("irradiance_top_rgb", ctypes.c_double * 3),
+        ("transmittance_rgb", ctypes.c_double * 3),
+        ("angular_diameter_deg", ctypes.c_double),
+        ("below_horizon", ctypes.c_int32),
+    ]
+
+
+class VdbOptions(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("region", ctypes.c_char_p),
+        ("unit", ctypes.c_char_p),
+        ("origin_center", ctypes.c_int32),
+        ("voxel_size", ctypes.c_double),
+        ("box", ctypes.c_double * 6),
+        ("tolerance", ctypes.c_double),
+        ("max_dense_mb", ctypes.c_double),
+        ("tile_voxels", ctypes.c_int32),
+    ]
+
+
+_MSG = ctypes.c_char_p
+_SIZE = ctypes.c_size_t
+_OUT = ctypes.POINTER(ctypes.c_void_p)
+
+_SIGNATURES = {
+    "airmass_abi_version": (ctypes.c_int32, []),
+    "airmass_version_string": (ctypes.c_char_p, []),
+    "airmass_status_name": (ctypes.c_char_p, [ctypes.c_int32]),
+    "airmass_has_vdb": (ctypes.c_int32, []),
+    "airmass_string_free": (None, [ctypes.c_void_p]),
+    "airmass_preset_names": (ctypes.c_int32, [_OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_chapman_method_names": (ctypes.c_int32, [_OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_scene_spec_init": (None, [ctypes.POINTER(SceneSpec)]),
+    "airmass_validate_scene": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), _OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_cancel_token_new": (ctypes.c_void_p, []),
+    "airmass_cancel_token_request": (None, [ctypes.c_void_p]),
+    "airmass_cancel_token_reset": (None, [ctypes.c_void_p]),
+    "airmass_cancel_token_requested": (ctypes.c_int32, [ctypes.c_void_p]),
+    "airmass_cancel_token_free": (None, [ctypes.c_void_p]),
+    "airmass_sky_options_init": (None, [ctypes.POINTER(SkyOptions)]),
+    "airmass_write_sky_exr": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
+                                               ctypes.c_char_p, ctypes.POINTER(Job), ctypes.c_void_p, _SIZE]),
+    "airmass_sun_light_at_observer": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.c_char_p,
+                                                       ctypes.POINTER(SunLight), ctypes.c_void_p, _SIZE]),
+    "airmass_vdb_options_init": (None, [ctypes.POINTER(VdbOptions)]),
+    "airmass_write_vdb": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions), ctypes.c_char_p,
+                                           ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_analytic_density_json": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
+                                                       _OUT, ctypes.c_void_p, _SIZE]),
+}
+
+_lock = threading.Lock()
+_state = {"lib": None, "error": None, "path": None}
+
+
+def default_library_path():
+    return os.environ.get(LIBRARY_ENV) or os.path.join(os.path.dirname(os.path.abspath(__file__)), LIBRARY_NAME)
+
+
+def _load():
+    path = default_library_path()
+    if not os.path.isfile(path):
+        raise LibraryLoadError(
+            "Airmass native library not found at '%s' (the add-on zip bundles it; reinstall the add-on, "
+            "or set %s to its path)" % (path, LIBRARY_ENV))
+    try:
+        lib = ctypes.CDLL(path)
+    except OSError as e:
+        hint = ""
+        if "cannot open shared object" in str(e):
+            hint = " (it needs the system libraries it was built against: OpenImageIO, OpenVDB, TBB, " \
+                   "toml++, libcerf; install them or use Debian's Blender)"
+        raise LibraryLoadError("Airmass native library '%s' failed to load: %s%s" % (path, e, hint))
+    try:
+        for name, (restype, argtypes) in _SIGNATURES.items():
+            fn = getattr(lib, name)
+            fn.restype = restype
+            fn.argtypes = argtypes
+    except AttributeError as e:
+        raise LibraryLoadError("Airmass native library '%s' is incomplete: %s" % (path, e))
+    version = lib.airmass_abi_version()
+    if version != ABI_VERSION:
+        raise LibraryLoadError(
+            "Airmass native library '%s' has C ABI version %d, this add-on needs %d: install the add-on "
+            "and its library from the same build" % (path, version, ABI_VERSION))
+    return lib, path
+
+
+def library():
+    """The loaded library; raises LibraryLoadError (cached) when it cannot be loaded."""
+    with _lock:
+        if _state["lib"] is None and _state["error"] is None:
+            try:
+                _state["lib"], _state["path"] = _load()
+            except LibraryLoadError as e:
+                _state["error"] = e
+        if _state["error"] is not None:
+            raise _state["error"]
+        return _state["lib"]
+
+
+def reset():
+    """Forget the loaded library (or the load error) so the next call loads again.
+
+    The shared object itself stays mapped (ctypes cannot unload it); this is for tests and
+    for the preferences' "Reload library" button after the user fixed the installation."""
+    with _lock:
+        _state["lib"] = None
+        _state["error"] = None
+        _state["path"] = None
+
+
+def load_error():
+    """None when the library loads, else the error message."""
+    try:
+        library()
+        return None
+    except LibraryLoadError as e:
+        return str(e)
+
+
+def _message_buffer():
+    return ctypes.create_string_buffer(_MESSAGE_SIZE)
+
+
+def _check(lib, status, buf):
+    if status != OK:
+        text = buf.value.decode("utf-8", "replace") or lib.airmass_status_name(status).decode()
+        raise NativeError(status, text)
+
+
+def _take_string(lib, ptr):
+    if not ptr.value:
+        return ""
+    try:
+        return ctypes.string_at(ptr.value).decode("utf-8", "replace")
+    finally:
+        lib.airmass_string_free(ptr.value)
+
+
+def _bytes(s):
+    return None if s is None else s.encode("utf-8")
+
+
+# ---- plain-Python descriptions of the C structs ---------------------------------------------
+
+class Spec:
+    """A scene for the library: `preset` or `toml` text, plus overrides (None keeps the scene's).
+
+    Lengths in metres, angles in degrees (the C ABI's units)."""
+
+    def __init__(self, preset=None, toml=None, source_name=None):
+        self.preset = preset
+        self.toml = toml
+        self.source_name = source_name
+        self.sun_elevation_deg = None
+        self.sun_rotation_deg = None
+        self.altitude_m = None
+        self.planet_radius_m = None
+        self.atmosphere_top_m = None
+        self.ground_albedo = None
+        self.basis = -1
+        self.constituents = []  # (name, enabled, density_scale or None, scale_height_m or None)
+        self.camera = None      # dict(position_m, direction, up, fov_deg, max_distance_m, width, height)
+
+    def _to_c(self, lib):
+        """Returns (SceneSpec, keepalive) — keepalive holds buffers the struct points to."""
+        spec = SceneSpec()
+        lib.airmass_scene_spec_init(ctypes.byref(spec))
+        keep = []
+        spec.toml = _bytes(self.toml)
+        spec.preset = _bytes(self.preset)
+        spec.source_name = _bytes(self.source_name)
+
+        def num(v):
+            return _NAN if v is None else float(v)
+
+        spec.sun_elevation_deg = num(self.sun_elevation_deg)
+        spec.sun_rotation_deg = num(self.sun_rotation_deg)
+        spec.altitude_m = num(self.altitude_m)
+        spec.planet_radius_m = num(self.planet_radius_m)
+        spec.atmosphere_top_m = num(self.atmosphere_top_m)
+        spec.ground_albedo = num(self.ground_albedo)
+        spec.basis = int(self.basis)
+        if self.constituents:
+            arr = (ConstituentOverride * len(self.constituents))()
+            for i, (name, enabled, scale, height) in enumerate(self.constituents):
+                encoded = _bytes(name)
+                keep.append(encoded)
+                arr[i].name = encoded
+                arr[i].enabled = 1 if enabled else 0
+                arr[i].density_scale = num(scale)
+                arr[i].scale_height_m = num(height)
+            keep.append(arr)
+            spec.constituent_count = len(self.constituents)
+            spec.constituents = ctypes.cast(arr, ctypes.POINTER(ConstituentOverride))
+        if self.camera is not None:
+            c = self.camera
+            spec.has_camera = 1
+            for i in range(3):
+                spec.camera_position_m[i] = float(c["position_m"][i])
+                spec.camera_direction[i] = float(c["direction"][i])
+                spec.camera_up[i] = float(c["up"][i])
+            spec.camera_fov_deg = float(c["fov_deg"])
+            spec.camera_max_distance_m = float(c["max_distance_m"])
+            spec.camera_width = int(c["width"])
+            spec.camera_height = int(c["height"])
+        return spec, keep
+
+
+class Progress:
+    """Progress and cancellation for one long call.
+
+    `callback(fraction)` runs on the thread that made the call; returning True requests
+    cancellation. `cancel()` may be called from any thread."""
+
+    def __init__(self, callback=None):
+        self.callback = callback
+        self.fraction = 0.0
+        self._lib = library()
+        self._token = self._lib.airmass_cancel_token_new()
+        if not self._token:
+            raise NativeError(INTERNAL_ERROR, "out of memory (cancel token)")
+
+    def cancel(self):
+        if self._token:
+            self._lib.airmass_cancel_token_request(self._token)
+
+    @property
+    def cancel_requested(self):
+        return bool(self._token and self._lib.airmass_cancel_token_requested(self._token))
+
+    def close(self):
+        if self._token:
+            self._lib.airmass_cancel_token_free(self._token)
+            self._token = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def _job(self):
+        def trampoline(_user, fraction):
+            self.fraction = fraction
+            if self.callback is None:
+                return 0
+            try:
+                return 1 if self.callback(fraction) else 0
+            except Exception:
+                return 1  # a failing callback stops the work rather than being ignored
+
+        fn = PROGRESS_FN(trampoline)
+        job = Job()
+        job.struct_size = ctypes.sizeof(Job)
+        job.progress = fn
+        job.user = None
+        job.cancel = self._token
+        return job, fn
+
+
+# ---- API --------------------------------------------------------------------------------
+
+def version():
+    lib = library()
+    return lib.airmass_version_string().decode()
+
+
+def has_vdb():
+    return bool(library().airmass_has_vdb())
+
+
+def _string_list(fn_name):
+    lib = library()
+    out = ctypes.c_void_p()
+    buf = _message_buffer()
+    _check(lib, getattr(lib, fn_name)(ctypes.byref(out), buf, _MESSAGE_SIZE), buf)
+    return [line for line in _take_string(lib, out).splitlines() if line]
+
+
+def preset_names():
+    return _string_list("airmass_preset_names")
+
+
+def chapman_method_names():
+    return _string_list("airmass_chapman_method_names")
+
+
+def validate_scene(spec):
+    """Validates; returns the scene as a dict (scene_to_json). Raises NativeError."""
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    out = ctypes.c_void_p()
+    buf = _message_buffer()
+    status = lib.airmass_validate_scene(ctypes.byref(c_spec), ctypes.byref(out), buf, _MESSAGE_SIZE)
+    del keep
+    _check(lib, status, buf)
+    return json.loads(_take_string(lib, out))
+
+
+def write_sky_exr(spec, path, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True,
+                  upper_only=False, threads=0, grid=None, progress=None):
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    opts = SkyOptions()
+    lib.airmass_sky_options_init(ctypes.byref(opts))
+    opts.width = int(width)
+    opts.height = int(height)
+    if view_samples is not None:
+        opts.view_samples = int(view_samples)
+    chapman_b = _bytes(chapman) if chapman else None
+    opts.chapman = chapman_b
+    opts.sun_disc = 1 if sun_disc else 0
+    opts.upper_only = 1 if upper_only else 0
+    opts.threads = int(threads)
+    if grid is not None:
+        opts.grid = int(grid)
+    buf = _message_buffer()
+    job_ptr, fn = None, None
+    if progress is not None:
+        job, fn = progress._job()
+        job_ptr = ctypes.byref(job)
+    status = lib.airmass_write_sky_exr(ctypes.byref(c_spec), ctypes.byref(opts), _bytes(path), job_ptr, buf,
+                                       _MESSAGE_SIZE)
+    del keep, fn, chapman_b
+    _check(lib, status, buf)
+
+
+def sun_light(spec, chapman=None):
+    """Direct sunlight at the observer: dict with direction, irradiance_rgb (W/m², the sky
+    texture's RGB units), irradiance_top_rgb, transmittance_rgb, angular_diameter_deg,
+    below_horizon."""
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    out = SunLight()
+    out.struct_size = ctypes.sizeof(SunLight)
+    buf = _message_buffer()
+    status = lib.airmass_sun_light_at_observer(ctypes.byref(c_spec), _bytes(chapman) if chapman else None,
+                                               ctypes.byref(out), buf, _MESSAGE_SIZE)
+    del keep
+    _check(lib, status, buf)
+    return {
+        "direction": tuple(out.direction),
+        "irradiance_rgb": tuple(out.irradiance_rgb),
+        "irradiance_top_rgb": tuple(out.irradiance_top_rgb),
+        "transmittance_rgb": tuple(out.transmittance_rgb),
+        "angular_diameter_deg": out.angular_diameter_deg,
+        "below_horizon": bool(out.below_horizon),
+    }
+
+
+def _vdb_options(lib, region="planet", unit="km", origin_center=False, voxel_size=None, box=None,
+                 tolerance=None, max_dense_mb=None, tile_voxels=0):
+    opts = VdbOptions()
+    lib.airmass_vdb_options_init(ctypes.byref(opts))
+    keep = [_bytes(region), _bytes(unit)]
+    opts.region, opts.unit = keep
+    opts.origin_center = 1 if origin_center else 0
+    opts.voxel_size = _NAN if voxel_size is None else float(voxel_size)
+    if box is not None:
+        for i in range(6):
+            opts.box[i] = float(box[i])
+    opts.tolerance = _NAN if tolerance is None else float(tolerance)
+    opts.max_dense_mb = _NAN if max_dense_mb is None else float(max_dense_mb)
+    opts.tile_voxels = int(tile_voxels)
+    return opts, keep
+
+
+def write_vdb(spec, path, progress=None, **vdb):
+    """Writes the grids; returns the stats dict (files, voxel_size, active_voxels, ...)."""
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    opts, keep2 = _vdb_options(lib, **vdb)
+    out = ctypes.c_void_p()
+    buf = _message_buffer()
+    job_ptr, fn = None, None
+    if progress is not None:
+        job, fn = progress._job()
+        job_ptr = ctypes.byref(job)
+    status = lib.airmass_write_vdb(ctypes.byref(c_spec), ctypes.byref(opts), _bytes(path), job_ptr,
+                                   ctypes.byref(out), buf, _MESSAGE_SIZE)
+    del keep, keep2, fn
+    _check(lib, status, buf)
+    return json.loads(_take_string(lib, out))
+
+
+def analytic_density(spec, **vdb):
+    """The analytic density description (docs/vdb.md) as a dict."""
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    opts, keep2 = _vdb_options(lib, **vdb)
+    out = ctypes.c_void_p()
+    buf = _message_buffer()
+    status = lib.airmass_analytic_density_json(ctypes.byref(c_spec), ctypes.byref(opts), ctypes.byref(out), buf,
+                                               _MESSAGE_SIZE)
+    del keep, keep2
+    _check(lib, status, buf)
+    return json.loads(_take_string(lib, out))
+

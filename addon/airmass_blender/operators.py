@@ -1,0 +1,139 @@
+"""The operators: airmass.generate_sky, airmass.sun_sync, airmass.create_volume,
+airmass.compare, and the small helpers the panel uses.
+
+Every operator reports failures with self.report({'ERROR'}, message) (a RuntimeError when
+called through bpy.ops from a script) and leaves nothing half-made: work is done first,
+datablocks are built into temporaries and swapped in only when complete.
+"""
+
+import traceback
+
+import bpy
+from bpy.props import EnumProperty
+
+from . import compare, native, sun, volume, world
+from .jobs import JobOperatorMixin, describe
+from .properties import SettingsError, refresh_constituents
+
+
+class AIRMASS_OT_generate_sky(JobOperatorMixin, bpy.types.Operator):
+    """Write the sky texture (EXR) through the Airmass library and use it as the World background"""
+    bl_idname = "airmass.generate_sky"
+    bl_label = "Generate Sky"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def make_plan(self, context):
+        return world.SkyPlan(context)
+
+
+class AIRMASS_OT_sun_sync(bpy.types.Operator):
+    """Sync the sun direction with a Sun lamp; set the lamp's strength (W/m²) and colour from the
+    sunlight transmitted to the observer"""
+    bl_idname = "airmass.sun_sync"
+    bl_label = "Sun Sync"
+    bl_options = {"REGISTER", "UNDO"}
+
+    direction: EnumProperty(
+        name="Direction", default="TO_LAMP",
+        items=[("TO_LAMP", "Settings → Lamp", "Point the Sun lamp (created if needed) at the settings' sun"),
+               ("FROM_LAMP", "Lamp → Settings", "Read the sun direction from the Sun lamp")])
+
+    def execute(self, context):
+        scene = context.scene
+        try:
+            if self.direction == "TO_LAMP":
+                obj = sun.settings_to_lamp(scene, create=True)
+            else:
+                obj = sun.lamp_to_settings(scene)
+        except Exception as e:  # noqa: BLE001
+            if not isinstance(e, (native.NativeError, SettingsError, ValueError)):
+                traceback.print_exc()
+            self.report({"ERROR"}, describe(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "Sun lamp '%s': %.4g W/m², colour (%.3f, %.3f, %.3f)"
+                    % (obj.name, obj.data.energy, *obj.data.color))
+        return {"FINISHED"}
+
+
+class AIRMASS_OT_create_volume(JobOperatorMixin, bpy.types.Operator):
+    """Create the atmosphere as a Cycles volume: analytic (exact densities from Math nodes on a
+    shell mesh) or VDB (voxels for the region the active camera needs)"""
+    bl_idname = "airmass.create_volume"
+    bl_label = "Create Atmosphere Volume"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mode: EnumProperty(
+        name="Mode", default="ANALYTIC",
+        items=[("ANALYTIC", "Analytic", "Shell mesh whose material evaluates each density exactly (no voxels, no OSL)"),
+               ("VDB", "VDB", "OpenVDB grids written by the library, imported as a Volume object")])
+
+    def make_plan(self, context):
+        if self.mode == "VDB":
+            return volume.VdbPlan(context)
+        return volume.AnalyticPlan(context)
+
+
+class AIRMASS_OT_compare(bpy.types.Operator):
+    """Render the active camera in Cycles and natively, and show the difference"""
+    bl_idname = "airmass.compare"
+    bl_label = "Compare with Native"
+
+    def execute(self, context):
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        try:
+            result = compare.run(context, progress=lambda f: wm.progress_update(int(1000 * f)) and False)
+        except compare.NotAvailable as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        except Exception as e:  # noqa: BLE001
+            self.report({"ERROR"}, describe(e))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        summary = (result or {}).get("summary") if isinstance(result, dict) else None
+        self.report({"INFO"}, summary or "Comparison done")
+        return {"FINISHED"}
+
+
+class AIRMASS_OT_refresh_constituents(bpy.types.Operator):
+    """Reload the constituent list from the preset or scene file"""
+    bl_idname = "airmass.refresh_constituents"
+    bl_label = "Refresh Constituents"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        error = refresh_constituents(context.scene.airmass)
+        if error:
+            self.report({"ERROR"}, error)
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+class AIRMASS_OT_reload_library(bpy.types.Operator):
+    """Try loading the Airmass native library again"""
+    bl_idname = "airmass.reload_library"
+    bl_label = "Reload Library"
+
+    def execute(self, context):
+        native.reset()
+        error = native.load_error()
+        if error:
+            self.report({"ERROR"}, error)
+            return {"CANCELLED"}
+        self.report({"INFO"}, "Airmass library %s loaded" % native.version())
+        return {"FINISHED"}
+
+
+CLASSES = (AIRMASS_OT_generate_sky, AIRMASS_OT_sun_sync, AIRMASS_OT_create_volume, AIRMASS_OT_compare,
+           AIRMASS_OT_refresh_constituents, AIRMASS_OT_reload_library)
+
+
+def register():
+    for c in CLASSES:
+        bpy.utils.register_class(c)
+
+
+def unregister():
+    for c in reversed(CLASSES):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,749 @@
+"""Create Atmosphere Volume: the atmosphere as a Cycles volume, analytic or voxels.
+
+Frame (both modes). 1 Blender unit = 1 km by default ("m" possible for small scenes).
+The world origin is the point on the ground below the observer, Z up; the planet centre
+is at (0, 0, −R). This is the scene frame of the library (scene.hpp) and of vdb_export's
+`origin = surface` layout, so the sky texture, the Sun lamp and both volumes agree.
+
+ANALYTIC — a shell domain mesh (outer sphere just outside the atmosphere top, inner
+sphere just inside the ground, normals inward) whose material computes each
+constituent's density exactly from the shading point, with Math nodes only:
+
+    w  = Texture Coordinate "Object"     (the object sits at the origin: w = world point)
+    q  = w·w − 2 w·c + (c·c − R²)        (= r² − R², no large radii subtracted)
+    h  = q / (sqrt(q + R²) + R)          (altitude = r − R without cancellation)
+    ρ  = profile(h) · [0 ≤ h ≤ h_top]    exponential: exp(−(h − h_ref)/H)
+                                          tent: max(0, min((h−b)/(p−b), (t−h)/(t−p)))
+                                          piecewise linear: Σ pieces × [h_k ≤ h < h_k+1]
+                                          constant: v · [b ≤ h < t]
+
+VDB — the library writes the grids of the region the active camera needs (or the whole
+planet); each file becomes a Volume object (render clipping 0, FULL precision), its
+material reads each grid by name with an Attribute node.
+
+Material (both): per constituent, Volume Scatter with Colour = σs/max(σs) and Density =
+ρ·max(σs) (σs per Blender unit at density 1, RGB), and Volume Absorption with Colour =
+1 − σa/max(σa) and Density = ρ·max(σa): Cycles computes σs = Colour × Density and
+σa = (1 − Colour) × Density, so both are exact per channel and every colour stays in
+[0, 1]. Cycles drops a scatter closure whose mean σs is below 1e-5 per unit (absorption
+has no cut-off); in km that happens only where the density is negligible, and the
+operator reports the altitude and the optical depth lost when it matters. Phase: on
+Blender 3.4–4.2 Henyey–Greenstein with the phase function's mean cosine (Rayleigh and
+isotropic 0, Cornette–Shanks 3g(4+g²)/(5(2+g²)), HG g); on ≥ 4.3 the Rayleigh phase for
+Rayleigh constituents and Draine with α = 1 (which is exactly Cornette–Shanks).
+"""
+
+import math
+import os
+
+import bpy
+from mathutils import Vector
+
+from . import native
+from .jobs import Plan
+from .properties import KM, SettingsError, make_spec, resolve_output_folder
+
+ROLE = "airmass_role"
+COLLECTION_NAME = "Airmass"
+VOLUME_NAME = "Airmass Atmosphere"
+GROUND_NAME = "Airmass Ground"
+CLOSURE_WEIGHT_CUTOFF = 1e-5  # cycles/kernel/svm/types.h
+
+# UV-sphere resolution of the domain and the ground.
+SPHERE_SEGMENTS = 256
+SPHERE_RINGS = 128
+
+
+def hg_anisotropy(phase, g):
+    """Henyey–Greenstein g with the same mean cosine as the scene's phase function."""
+    if phase == "henyey_greenstein":
+        return g
+    if phase == "cornette_shanks":
+        return 3.0 * g * (4.0 + g * g) / (5.0 * (2.0 + g * g))
+    return 0.0  # rayleigh, rayleigh_modified, isotropic: symmetric
+
+
+def units(settings):
+    return {"KM": ("km", KM), "M": ("m", 1.0)}[settings.length_unit]
+
+
+# ---- node helpers ------------------------------------------------------------------------
+
+class NodeBuilder:
+    """Creates shader nodes in columns, left to right, and wires constants or sockets."""
+
+    def __init__(self, tree):
+        self.tree = tree
+        self.column = 0
+        self.row = 0
+
+    def place(self, node):
+        node.location = (-1400 + 180 * self.column, 600 - 160 * self.row)
+        self.row += 1
+        if self.row > 12:
+            self.row = 0
+            self.column += 1
+        return node
+
+    def node(self, kind, **props):
+        n = self.place(self.tree.nodes.new(kind))
+        for k, v in props.items():
+            setattr(n, k, v)
+        return n
+
+    def _feed(self, socket, value):
+        if isinstance(value, bpy.types.NodeSocket):
+            self.tree.links.new(value, socket)
+        else:
+            socket.default_value = value
+
+    def math(self, op, a, b=None, c=None):
+        n = self.node("ShaderNodeMath", operation=op)
+        for i, v in enumerate((a, b, c)):
+            if v is not None:
+                self._feed(n.inputs[i], v)
+        return n.outputs[0]
+
+    def dot(self, a, b):
+        n = self.node("ShaderNodeVectorMath", operation="DOT_PRODUCT")
+        self._feed(n.inputs[0], a)
+        self._feed(n.inputs[1], b)
+        return n.outputs["Value"]
+
+
+def altitude_socket(nb, position, center, radius):
+    """h = |p − c| − R computed as q/(sqrt(q + R²) + R), q = p·p − 2p·c + (c·c − R²)."""
+    cc_minus_r2 = sum(x * x for x in center) - radius * radius
+    pp = nb.dot(position, position)
+    q = pp
+    if any(center):
+        pc = nb.dot(position, tuple(center))
+        q = nb.math("MULTIPLY_ADD", pc, -2.0, pp)
+    if cc_minus_r2 != 0.0:
+        q = nb.math("ADD", q, cc_minus_r2)
+    r = nb.math("SQRT", nb.math("ADD", q, radius * radius))
+    return nb.math("DIVIDE", q, nb.math("ADD", r, radius))
+
+
+def in_band(nb, h, lo, hi):
+    """1 where lo ≤ h < hi, else 0."""
+    return nb.math("SUBTRACT", nb.math("LESS_THAN", h, hi), nb.math("LESS_THAN", h, lo))
+
+
+def profile_socket(nb, h, profile, top_altitude):
+    """ρ(h) of one profile (docs/vdb.md "Analytic density"), altitudes in Blender units."""
+    kind = profile["type"].replace("-", "_")
+    if kind == "exponential":
+        H = float(profile["scale_height"])
+        h0 = float(profile.get("reference_altitude", 0.0))
+        return nb.math("EXPONENT", nb.math("MULTIPLY_ADD", h, -1.0 / H, h0 / H))
+    if kind == "tent":
+        b, p, t = float(profile["bottom"]), float(profile["peak"]), float(profile["top"])
+        if p > b and t > p:
+            up = nb.math("MULTIPLY_ADD", h, 1.0 / (p - b), -b / (p - b))
+            down = nb.math("MULTIPLY_ADD", h, -1.0 / (t - p), t / (t - p))
+            return nb.math("MAXIMUM", nb.math("MINIMUM", up, down), 0.0)
+        knots = [(b, 0.0), (p, 1.0), (t, 0.0)]
+    elif kind == "piecewise_linear":
+        knots = [(float(a), float(d)) for a, d in profile["knots"]]
+    elif kind == "constant":
+        b = float(profile.get("bottom", 0.0) or 0.0)
+        t = profile.get("top")
+        t = top_altitude if t is None else float(t)
+        return nb.math("MULTIPLY", in_band(nb, h, b, t), float(profile.get("value", 1.0)))
+    else:
+        raise SettingsError("unknown density profile type '%s' from the library" % profile["type"])
+    total = None
+    for (h0, r0), (h1, r1) in zip(knots, knots[1:]):
+        if not h1 > h0:
+            continue  # a jump: the next piece starts at the new value
+        slope = (r1 - r0) / (h1 - h0)
+        piece = nb.math("MULTIPLY", nb.math("MULTIPLY_ADD", h, slope, r0 - slope * h0), in_band(nb, h, h0, h1))
+        total = piece if total is None else nb.math("ADD", total, piece)
+    return total if total is not None else 0.0
+
+
+def build_material(name, constituents, density_for, anisotropy_version=None):
+    """A volume material from constituent descriptions (name, scattering_rgb, absorption_rgb,
+    phase, g) and `density_for(nb, name)` → a socket (or float) of the relative density."""
+    mat = bpy.data.materials.new(name)
+    try:
+        mat.use_nodes = True
+        tree = mat.node_tree
+        tree.nodes.clear()
+        nb = NodeBuilder(tree)
+        out = tree.nodes.new("ShaderNodeOutputMaterial")
+        out.location = (900, 300)
+        version = anisotropy_version or bpy.app.version
+        shaders = []
+        for c in constituents:
+            sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
+            sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
+            if max(sigma_s) <= 0.0 and max(sigma_a) <= 0.0:
+                continue
+            density = density_for(nb, c["name"])
+            if max(sigma_s) > 0.0:
+                ds = max(sigma_s)
+                node = nb.node("ShaderNodeVolumeScatter", name="%s scatter" % c["name"], label="%s scatter" % c["name"])
+                node.inputs["Color"].default_value = (*[x / ds for x in sigma_s], 1.0)
+                nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, ds) if not isinstance(density, float)
+                         else density * ds)
+                phase = c.get("phase", "isotropic")
+                g = float(c.get("g", 0.0))
+                if version >= (4, 3, 0) and hasattr(node, "phase"):
+                    if phase in ("rayleigh", "rayleigh_modified"):
+                        node.phase = "RAYLEIGH"
+                    elif phase == "cornette_shanks":
+                        node.phase = "DRAINE"
+                        node.inputs["Anisotropy"].default_value = g
+                        node.inputs["Alpha"].default_value = 1.0
+                    else:
+                        node.phase = "HENYEY_GREENSTEIN"
+                        node.inputs["Anisotropy"].default_value = hg_anisotropy(phase, g)
+                else:
+                    node.inputs["Anisotropy"].default_value = hg_anisotropy(phase, g)
+                node["airmass_sigma_s"] = sigma_s
+                shaders.append(node.outputs[0])
+            if max(sigma_a) > 0.0:
+                da = max(sigma_a)
+                node = nb.node("ShaderNodeVolumeAbsorption", name="%s absorption" % c["name"],
+                               label="%s absorption" % c["name"])
+                node.inputs["Color"].default_value = (*[1.0 - x / da for x in sigma_a], 1.0)
+                nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, da) if not isinstance(density, float)
+                         else density * da)
+                node["airmass_sigma_a"] = sigma_a
+                shaders.append(node.outputs[0])
+        if not shaders:
+            raise SettingsError("the scene has no constituent that scatters or absorbs light")
+        total = shaders[0]
+        for s in shaders[1:]:
+            add = nb.node("ShaderNodeAddShader")
+            tree.links.new(total, add.inputs[0])
+            tree.links.new(s, add.inputs[1])
+            total = add.outputs[0]
+        tree.links.new(total, out.inputs["Volume"])
+        return mat
+    except Exception:
+        bpy.data.materials.remove(mat)
+        raise
+
+
+def cutoff_notes(constituents, top_altitude, unit_name):
+    """Where Cycles' 1e-5 cut-off drops a constituent's scattering, when it matters."""
+    notes = []
+    for c in constituents:
+        mean_s = sum(float(x) for x in c["scattering_rgb"]) / 3.0
+        prof = c.get("profile", {})
+        if mean_s <= 0.0 or prof.get("type") != "exponential":
+            continue
+        H = float(prof["scale_height"])
+        h0 = float(prof.get("reference_altitude", 0.0))
+        if mean_s < CLOSURE_WEIGHT_CUTOFF:
+            notes.append("%s scattering (%.3g/%s) is below Cycles' 1e-5 cut-off everywhere: use km units"
+                         % (c["name"], mean_s, unit_name))
+            continue
+        h_cut = h0 + H * math.log(mean_s / CLOSURE_WEIGHT_CUTOFF)
+        lost = CLOSURE_WEIGHT_CUTOFF * H  # vertical optical depth above h_cut
+        if h_cut < top_altitude and lost > 1e-3:
+            notes.append("%s scattering is dropped by Cycles above %.3g %s (vertical optical depth %.2g lost)"
+                         % (c["name"], h_cut, unit_name, lost))
+    return notes
+
+
+# ---- meshes -----------------------------------------------------------------------------
+#
+# Built with numpy and Mesh.from_pydata (bmesh's UV sphere takes seconds at this size).
+# A "cap" is the part of a sphere within polar angle theta_max of an axis; theta_max = π
+# is the whole sphere. Vertex rings are at θ_i = theta_max·i/rings around the axis; faces
+# are ordered so normals point out of the sphere (reversed for the inner boundary).
+
+def _axis_frame(axis):
+    """Rotation (3×3, columns) taking +Z to `axis`."""
+    import numpy as np
+    z = np.asarray(axis, dtype=float)
+    z = z / np.linalg.norm(z)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1)
+
+
+def _cap(radius, theta_max, segments, rings):
+    """Vertices (N×3, around +Z, unit frame) and faces (lists) of a sphere cap, normals out."""
+    import numpy as np
+    full = theta_max >= math.pi * (1.0 - 1e-12)
+    n_rings = rings - 1 if full else rings
+    theta = theta_max * np.arange(1, n_rings + 1) / rings
+    phi = 2.0 * math.pi * np.arange(segments) / segments
+    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
+    ring = np.stack([st * np.cos(phi)[None, :], st * np.sin(phi)[None, :], np.broadcast_to(ct, (n_rings, segments))],
+                    axis=-1).reshape(-1, 3)
+    verts = [np.array([[0.0, 0.0, 1.0]]), ring]
+    idx = lambda i, j: 1 + i * segments + (j % segments)  # noqa: E731
+    faces = [(0, idx(0, j), idx(0, j + 1)) for j in range(segments)]
+    for i in range(n_rings - 1):
+        faces += [(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)) for j in range(segments)]
+    rim = [idx(n_rings - 1, j) for j in range(segments)]
+    if full:
+        bottom = 1 + n_rings * segments
+        verts.append(np.array([[0.0, 0.0, -1.0]]))
+        faces += [(idx(n_rings - 1, j + 1), idx(n_rings - 1, j), bottom) for j in range(segments)]
+        rim = None
+    return np.concatenate(verts) * radius, faces, rim
+
+
+def shell_geometry(center, axis, r_inner, r_outer, theta_max, segments=None, rings=None):
+    """A closed shell between two spheres (or caps of them, joined by a wall): vertices
+    (N×3, world) and faces with normals pointing out of the shell."""
+    import numpy as np
+    segments = segments or SPHERE_SEGMENTS
+    rings = rings or SPHERE_RINGS
+    outer_v, outer_f, outer_rim = _cap(r_outer, theta_max, segments, rings)
+    inner_v, inner_f, inner_rim = _cap(r_inner, theta_max, segments, rings)
+    n = len(outer_v)
+    faces = list(outer_f) + [tuple(reversed([v + n for v in f])) for f in inner_f]
+    if outer_rim is not None:
+        m = len(outer_rim)
+        faces += [(inner_rim[j] + n, inner_rim[(j + 1) % m] + n, outer_rim[(j + 1) % m], outer_rim[j])
+                  for j in range(m)]
+    verts = np.concatenate([outer_v, inner_v]) @ _axis_frame(axis).T + np.asarray(center, dtype=float)
+    return verts, faces
+
+
+def sphere_geometry(center, axis, radius, theta_max):
+    """An open cap (or the whole sphere) of `radius`, normals out."""
+    import numpy as np
+    v, f, _rim = _cap(radius, theta_max, SPHERE_SEGMENTS, SPHERE_RINGS)
+    return v @ _axis_frame(axis).T + np.asarray(center, dtype=float), f
+
+
+def _circumscribe(radius, theta_max=math.pi):
+    """Radius of a UV cap whose faces all lie outside the true sphere of `radius`."""
+    half = math.hypot(math.pi / SPHERE_SEGMENTS, theta_max / (2 * SPHERE_RINGS))
+    return radius / math.cos(half) * (1.0 + 1e-6)
+
+
+def mesh_from(name, verts, faces, smooth=False):
+    mesh = bpy.data.meshes.new(name)
+    try:
+        mesh.from_pydata(verts.tolist(), [], faces)
+        mesh.validate(verbose=False)
+        if smooth:
+            try:
+                mesh.polygons.foreach_set("use_smooth", [True] * len(mesh.polygons))
+            except (AttributeError, TypeError):
+                pass
+        mesh.update()
+    except Exception:
+        bpy.data.meshes.remove(mesh)
+        raise
+    return mesh
+
+
+def view_cap(context, settings, description, unit_m):
+    """(axis, theta_max) of the region to model: around the active camera's sub-point, wide
+    enough for every point within the view distance; the whole planet otherwise."""
+    if settings.volume_region != "VIEW":
+        return (0.0, 0.0, 1.0), math.pi
+    cam = context.scene.camera
+    if cam is None:
+        raise SettingsError("Region 'Camera View' needs an active camera in the scene")
+    center = Vector(description["planet_center"])
+    R = float(description["planet_radius"])
+    offset = cam.matrix_world.translation - center
+    if offset.length < 1e-9:
+        raise SettingsError("the camera is at the planet's centre")
+    d = settings.view_distance * KM / unit_m
+    theta = min(math.pi, 1.05 * d / R + 1e-3)
+    return tuple(offset.normalized()), theta
+
+
+def ground_material(albedo):
+    mat = bpy.data.materials.new(GROUND_NAME)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (albedo, albedo, albedo, 1.0)
+    out = mat.node_tree.nodes.get("Material Output")
+    for n in list(mat.node_tree.nodes):
+        if n not in (bsdf, out):
+            mat.node_tree.nodes.remove(n)
+    mat.node_tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat[ROLE] = "ground"
+    return mat
+
+
+# ---- building, swapping, cleaning up ---------------------------------------------------------
+
+class Created:
+    """Datablocks made by one run, removed together if the run fails."""
+
+    def __init__(self):
+        self.items = []
+
+    def add(self, block):
+        self.items.append(block)
+        return block
+
+    def remove_all(self):
+        for block in reversed(self.items):
+            _remove_block(block)
+        self.items.clear()
+
+
+def _remove_block(block):
+    kind = type(block).__name__
+    try:
+        if kind == "Object":
+            bpy.data.objects.remove(block)
+        elif kind == "Mesh":
+            bpy.data.meshes.remove(block)
+        elif kind == "Volume":
+            bpy.data.volumes.remove(block)
+        elif kind == "Material":
+            bpy.data.materials.remove(block)
+        elif kind == "Collection":
+            bpy.data.collections.remove(block)
+    except ReferenceError:
+        pass
+
+
+def _old_objects(scene):
+    return [o for o in scene.objects if o.get(ROLE) in ("atmosphere", "ground")]
+
+
+def _remove_old(objects):
+    for o in objects:
+        data = o.data
+        mats = [s.material for s in o.material_slots if s.material is not None]
+        bpy.data.objects.remove(o)
+        if data is not None and data.users == 0:
+            _remove_block(data)
+        for m in mats:
+            if m.users == 0:
+                bpy.data.materials.remove(m)
+
+
+def _collection(scene, created):
+    coll = bpy.data.collections.get(COLLECTION_NAME)
+    if coll is None:
+        coll = created.add(bpy.data.collections.new(COLLECTION_NAME))
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def _configure_scene(context, settings, description, step, unit_name):
+    """Units, ray marching and the camera's clip end for a planet-sized volume."""
+    scene = context.scene
+    notes = []
+    if settings.set_units:
+        us = scene.unit_settings
+        us.system = "METRIC"
+        us.scale_length = 1000.0 if unit_name == "km" else 1.0
+        us.length_unit = "KILOMETERS" if unit_name == "km" else "METERS"
+    R = float(description["planet_radius"])
+    top = float(description["atmosphere_top"])
+    center = Vector(description["planet_center"])
+    chord = 2.0 * math.sqrt(max(0.0, top * top - R * R))  # the longest path through the shell
+    needed = int(math.ceil(chord / step)) + 16
+    cycles = getattr(scene, "cycles", None)
+    if cycles is not None:
+        if cycles.volume_max_steps < needed:
+            cycles.volume_max_steps = min(65536, needed)
+            notes.append("volume max steps %d" % cycles.volume_max_steps)
+    cam = scene.camera
+    if cam is not None and cam.type == "CAMERA":
+        far = (cam.matrix_world.translation - center).length + top
+        if cam.data.clip_end < far * 1.001:
+            cam.data.clip_end = far * 1.01
+            notes.append("camera clip end %.4g %s" % (cam.data.clip_end, unit_name))
+    return notes
+
+
+def _lamp_update(scene):
+    """(lamp, light values) for re-syncing an existing Sun lamp to top-of-atmosphere sunlight
+    once a volume exists; computed before anything changes."""
+    from . import sun
+    lamp = sun.find_lamp(scene)
+    if lamp is None:
+        return None
+    return lamp, sun.lamp_light(scene, top=True)[:3]
+
+
+def _swap_in(context, settings, new_objects, created):
+    """Links the new objects, removes the previous Airmass atmosphere and ground, and gives an
+    existing Sun lamp the top-of-atmosphere sunlight (the volume now attenuates it)."""
+    scene = context.scene
+    lamp = _lamp_update(scene)
+    old = _old_objects(scene)
+    coll = _collection(scene, created)
+    for o in new_objects:
+        coll.objects.link(o)
+    created.items.clear()  # from here on they belong to the scene
+    _remove_old(old)
+    # Canonical names once the previous ones are gone.
+    for o in new_objects:
+        base = VOLUME_NAME if o.get(ROLE) == "atmosphere" else GROUND_NAME
+        if len([x for x in new_objects if x.get(ROLE) == o.get(ROLE)]) == 1:
+            o.name = base
+            if o.data is not None:
+                o.data.name = base
+    if lamp is not None:
+        from . import sun
+        sun.apply_light(lamp[0], *lamp[1])
+
+
+def _ground(description, albedo, created, axis=(0.0, 0.0, 1.0), theta=math.pi):
+    R = float(description["planet_radius"])
+    center = tuple(description["planet_center"])
+    verts, faces = sphere_geometry(center, axis, R, min(math.pi, theta * 1.02))
+    mesh = created.add(mesh_from(GROUND_NAME, verts, faces, smooth=True))
+    mat = created.add(ground_material(albedo))
+    mesh.materials.append(mat)
+    obj = created.add(bpy.data.objects.new(GROUND_NAME, mesh))
+    obj[ROLE] = "ground"
+    return obj
+
+
+# ---- the two modes ---------------------------------------------------------------------------
+
+class AnalyticPlan(Plan):
+    label = "Create Atmosphere Volume (analytic)"
+
+    def __init__(self, context):
+        s = context.scene.airmass
+        self.settings = s
+        self.unit_name, self.unit_m = units(s)
+        self.spec = make_spec(s)
+        native.validate_scene(self.spec)  # fail before any work, with the field's name
+        if s.volume_region == "VIEW" and (context.scene.camera is None or context.scene.camera.type != "CAMERA"):
+            raise SettingsError("Region 'Camera View' needs an active camera in the scene")
+        self.albedo = None
+        self.summary = None
+
+    def work(self, progress):
+        scene = native.validate_scene(self.spec)
+        self.albedo = float(scene["planet"]["ground_albedo"])
+        return native.analytic_density(self.spec, unit=self.unit_name)
+
+    def finish(self, context, description):
+        s = self.settings
+        created = Created()
+        try:
+            R = float(description["planet_radius"])
+            top = float(description["atmosphere_top"])
+            top_alt = top - R
+            center = tuple(float(x) for x in description["planet_center"])
+            constituents = description["constituents"]
+
+            def density_for(nb, name):
+                if getattr(nb, "h", None) is None:
+                    coords = nb.node("ShaderNodeTexCoord").outputs["Object"]
+                    nb.h = altitude_socket(nb, coords, center, R)
+                    nb.mask = nb.math("MULTIPLY", nb.math("GREATER_THAN", nb.h, 0.0),
+                                      nb.math("LESS_THAN", nb.h, top_alt))
+                c = next(c for c in constituents if c["name"] == name)
+                return nb.math("MULTIPLY", profile_socket(nb, nb.h, c["profile"], top_alt), nb.mask)
+
+            mat = created.add(build_material(VOLUME_NAME, constituents, density_for))
+            mat[ROLE] = "atmosphere"
+            axis, theta = view_cap(context, s, description, self.unit_m)
+            verts, faces = shell_geometry(center, axis, R * (1.0 - 1e-4), _circumscribe(top, theta), theta)
+            # Cycles marches procedural volumes in steps of 0.1 × the object's mean bounding-box
+            # size × the material's step rate (min 0.001): choose the rate for the wanted step.
+            size = float((verts.max(axis=0) - verts.min(axis=0)).mean())
+            step_bu = s.step_km * KM / self.unit_m
+            rate = step_bu / (0.1 * size)
+            mat.cycles.volume_step_rate = min(1000.0, max(0.001, rate))
+            step = 0.1 * size * mat.cycles.volume_step_rate
+            mesh = created.add(mesh_from(VOLUME_NAME, verts, faces))
+            mesh.materials.append(mat)
+            obj = created.add(bpy.data.objects.new(VOLUME_NAME, mesh))
+            obj[ROLE] = "atmosphere"
+            obj["airmass_mode"] = "ANALYTIC"
+            obj.display_type = "WIRE"
+            new = [obj]
+            if s.add_ground:
+                new.append(_ground(description, self.albedo, created, axis, theta))
+            notes = _configure_scene(context, s, description, step, self.unit_name)
+            _swap_in(context, s, new, created)
+        except Exception:
+            created.remove_all()
+            raise
+        notes += cutoff_notes(constituents, top_alt, self.unit_name)
+        self.summary = "Airmass analytic atmosphere: %d constituents, step %.3g %s%s" % (
+            len(constituents), step, self.unit_name, ("; " + "; ".join(notes)) if notes else "")
+
+
+def camera_spec(context, unit_m, max_distance_m):
+    """The active camera for the VDB view region, in the library's frame (metres)."""
+    scene = context.scene
+    cam = scene.camera
+    if cam is None or cam.type != "CAMERA":
+        raise SettingsError("Region 'Camera View' needs an active camera in the scene")
+    if cam.data.type != "PERSP":
+        raise SettingsError("Region 'Camera View' needs a perspective camera ('%s' is %s)"
+                            % (cam.name, cam.data.type.lower()))
+    m = cam.matrix_world
+    rot = m.to_3x3().normalized()
+    position = m.translation * unit_m
+    direction = rot @ Vector((0.0, 0.0, -1.0))
+    up = rot @ Vector((0.0, 1.0, 0.0))
+    frame = cam.data.view_frame(scene=scene)  # corners at depth −z, shift and sensor fit included
+    depth = abs(frame[0].z)
+    half_w = max(abs(v.x) for v in frame)
+    fov_deg = math.degrees(2.0 * math.atan(half_w / depth))
+    r = scene.render
+    width = max(1, int(r.resolution_x * r.resolution_percentage / 100))
+    height = max(1, int(r.resolution_y * r.resolution_percentage / 100))
+    return {"position_m": tuple(position), "direction": tuple(direction), "up": tuple(up), "fov_deg": fov_deg,
+            "max_distance_m": max_distance_m, "width": width, "height": height}
+
+
+def read_grid_metadata(path):
+    """{grid name: metadata dict} from a .vdb via pyopenvdb/openvdb, or None if neither imports."""
+    module = None
+    for name in ("openvdb", "pyopenvdb"):
+        try:
+            module = __import__(name)
+            break
+        except ImportError:
+            continue
+    if module is None:
+        return None
+    out = {}
+    for grid in module.readAllGridMetadata(path):
+        meta = dict(grid.metadata)
+        out[grid.name] = meta
+    return out
+
+
+# vdb_export names its options as the CLI spells them; in Blender the panel's names mean more.
+_UI_OPTION_NAMES = (("--voxel-size", "Voxel Size"), ("--max-dense-mb", "Memory Limit (MiB)"),
+                    ("--max-memory-mb", "the grid memory limit"), ("--region view", "Region: Camera View"),
+                    ("--region box", "a box region"), ("--region", "Region"), ("--units", "Length Unit"),
+                    ("--tolerance", "tolerance"))
+
+
+def ui_option_names(message):
+    for cli, ui in _UI_OPTION_NAMES:
+        message = message.replace(cli, ui)
+    return message
+
+
+class VdbPlan(Plan):
+    label = "Create Atmosphere Volume (VDB)"
+
+    def __init__(self, context):
+        s = context.scene.airmass
+        self.settings = s
+        self.unit_name, self.unit_m = units(s)
+        self.spec = make_spec(s)
+        self.region = "view" if s.volume_region == "VIEW" else "planet"
+        if self.region == "view":
+            self.spec.camera = camera_spec(context, self.unit_m, s.view_distance * KM)
+        native.validate_scene(self.spec)
+        self.folder = resolve_output_folder(s)
+        self.path = os.path.join(self.folder, "%s_atmosphere.vdb" % bpy.path.clean_name(context.scene.name))
+        self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
+        self.max_dense_mb = s.max_dense_mb
+        self.files = []
+        self.summary = None
+
+    def work(self, progress):
+        scene = native.validate_scene(self.spec)
+        albedo = float(scene["planet"]["ground_albedo"])
+        description = native.analytic_density(self.spec, unit=self.unit_name)
+        try:
+            stats = native.write_vdb(self.spec, self.path, progress=progress, region=self.region,
+                                     unit=self.unit_name, voxel_size=self.voxel, max_dense_mb=self.max_dense_mb)
+        except native.NativeError as e:
+            raise native.NativeError(e.status, ui_option_names(str(e)))
+        self.files = list(stats.get("files", []))
+        return stats, description, albedo
+
+    def abort(self):
+        # The library writes atomically; a failure after it wrote (in Blender) removes its files.
+        for f in self.files:
+            try:
+                os.remove(f)
+            except OSError:
+                pass
+
+    def finish(self, context, result):
+        stats, description, albedo = result
+        s = self.settings
+        created = Created()
+        try:
+            voxel = float(stats["voxel_size"])
+            volumes = []
+            metadata = {}
+            for i, f in enumerate(self.files):
+                vol = created.add(bpy.data.volumes.new("%s %d" % (VOLUME_NAME, i)))
+                vol.filepath = f
+                vol.render.clipping = 0.0
+                vol.render.precision = "FULL"
+                vol.render.space = "WORLD"
+                vol.render.step_size = max(1e-6, s.step_km * KM / self.unit_m)
+                if not vol.grids.load():
+                    raise RuntimeError("Blender cannot read '%s': %s" % (f, vol.grids.error_message))
+                volumes.append(vol)
+                meta = read_grid_metadata(f)
+                if meta:
+                    metadata.update(meta)
+            grid_names = sorted({g.name for v in volumes for g in v.grids})
+            constituents = self._constituents(description, metadata, grid_names)
+
+            def density_for(nb, name):
+                attr = nb.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=name)
+                return attr.outputs["Fac"]
+
+            mat = created.add(build_material(VOLUME_NAME, constituents, density_for))
+            mat[ROLE] = "atmosphere"
+            new = []
+            for i, vol in enumerate(volumes):
+                vol.materials.append(mat)
+                obj = created.add(bpy.data.objects.new("%s %d" % (VOLUME_NAME, i) if len(volumes) > 1
+                                                       else VOLUME_NAME, vol))
+                obj[ROLE] = "atmosphere"
+                obj["airmass_mode"] = "VDB"
+                if bpy.app.version < (5, 0, 0):
+                    # Blender < 5.0 renders voxel values at voxel centres; OpenVDB stores them at
+                    # index points (lower corners): shift back by half a voxel.
+                    obj.location = (-0.5 * voxel, -0.5 * voxel, -0.5 * voxel)
+                new.append(obj)
+            if s.add_ground:
+                axis, theta = view_cap(context, s, description, self.unit_m) if self.region == "view" \
+                    else ((0.0, 0.0, 1.0), math.pi)
+                new.append(_ground(description, albedo, created, axis, theta))
+            notes = _configure_scene(context, s, description, s.step_km * KM / self.unit_m, self.unit_name)
+            _swap_in(context, s, new, created)
+        except Exception:
+            created.remove_all()
+            raise
+        source = "grid metadata" if metadata else "analytic description (no pyopenvdb/openvdb module)"
+        self.summary = ("Airmass VDB atmosphere: %d file(s), voxel %.3g %s, %s active voxels, material from %s%s"
+                        % (len(self.files), voxel, self.unit_name, stats.get("active_voxels"), source,
+                           ("; " + "; ".join(notes)) if notes else ""))
+
+    @staticmethod
+    def _constituents(description, metadata, grid_names):
+        """Per grid: coefficients and phase from the grid metadata when readable, else from the
+        analytic description (which carries the same numbers)."""
+        by_name = {c["name"]: c for c in description["constituents"]}
+        out = []
+        for name in grid_names:
+            meta = metadata.get(name)
+            if meta and "airmass:scattering_rgb" in meta:
+                out.append({"name": name,
+                            "scattering_rgb": list(meta["airmass:scattering_rgb"]),
+                            "absorption_rgb": list(meta.get("airmass:absorption_rgb", (0.0, 0.0, 0.0))),
+                            "phase": meta.get("airmass:phase", "isotropic"),
+                            "g": float(meta.get("airmass:g", 0.0)),
+                            "profile": by_name.get(name, {}).get("profile", {})})
+            elif name in by_name:
+                out.append(by_name[name])
+            else:
+                raise RuntimeError("grid '%s' has no airmass metadata and is not in the scene" % name)
+        return out

@@ -1,0 +1,205 @@
+/* airmass_c.h — the plain C ABI of libairmass_c, for hosts that cannot link C++
+ * (the Blender add-on loads it with Python's ctypes; see addon/airmass_blender/native.py).
+ *
+ * Rules every function follows
+ *   * Nothing aborts and no exception crosses this boundary: each function returns an
+ *     airmass_status (0 = AIRMASS_OK) and, on failure, writes a NUL-terminated message
+ *     into the caller's buffer `message` (`message_size` bytes, truncated to fit; either
+ *     may be NULL/0). Messages name the field, value and allowed range, e.g.
+ *     "planet.radius_km = -1: must be in (0, 1e+06]".
+ *   * Versioned: AIRMASS_C_ABI_VERSION changes whenever a declaration here changes
+ *     incompatibly; a host checks airmass_abi_version() before any other call. Every
+ *     struct starts with `struct_size` (the caller sets sizeof); the library refuses a
+ *     size it does not know, so old hosts and new libraries never misread each other.
+ *   * Units are SI as in the C++ API (plugin/include/airmass/scene.hpp): metres, degrees,
+ *     m⁻¹; except VDB lengths, which are in the chosen length unit (km by default).
+ *   * Strings returned by the library (`char** out`) are allocated by it and must be
+ *     released with airmass_string_free().
+ *   * Long calls (sky, VDB) run their work on a library thread while the calling thread
+ *     reports progress: `progress(user, fraction)` is always called on the CALLING thread
+ *     (so a Python callback may touch Python state), at most every ~50 ms and once with
+ *     1.0 at the end; a nonzero return requests cancellation. A cancel token (below) can
+ *     also be set from any thread (the library only reads it, so a token can be reused
+ *     after airmass_cancel_token_reset). A cancelled call returns AIRMASS_CANCELLED and leaves
+ *     no file behind.
+ *   * Thread-safe: no global mutable state; calls may run concurrently.
+ */
+#ifndef AIRMASS_C_H
+#define AIRMASS_C_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32)
+#define AIRMASS_C_API __declspec(dllexport)
+#else
+#define AIRMASS_C_API __attribute__((visibility("default")))
+#endif
+
+#define AIRMASS_C_ABI_VERSION 1
+
+typedef enum airmass_status {
+    AIRMASS_OK = 0,
+    AIRMASS_INVALID_ARGUMENT = 1, /* a NULL pointer, unknown struct_size, bad option string  */
+    AIRMASS_SCENE_ERROR = 2,      /* the scene (file, preset or override) is invalid          */
+    AIRMASS_SETTINGS_ERROR = 3,   /* sky / VDB settings out of range, or a memory limit        */
+    AIRMASS_IO_ERROR = 4,         /* the output cannot be written                              */
+    AIRMASS_CANCELLED = 5,        /* stopped by the progress callback or the cancel token      */
+    AIRMASS_UNSUPPORTED = 6,      /* this build lacks the feature (e.g. no vdb_export)         */
+    AIRMASS_INTERNAL_ERROR = 99   /* anything else (out of memory, a bug): message says what  */
+} airmass_status;
+
+/* ---- Version ------------------------------------------------------------------------- */
+
+AIRMASS_C_API int32_t airmass_abi_version(void);         /* AIRMASS_C_ABI_VERSION         */
+AIRMASS_C_API const char* airmass_version_string(void);  /* library version, e.g. "0.1.0" */
+AIRMASS_C_API const char* airmass_status_name(int32_t status); /* "AIRMASS_OK", ...       */
+/* 1 when the library was built with vdb_export (airmass_write_vdb, airmass_analytic_density_json). */
+AIRMASS_C_API int32_t airmass_has_vdb(void);
+
+AIRMASS_C_API void airmass_string_free(char* s);
+
+/* Newline-separated lists: preset names ("earth\nmars\n...") and Chapman methods. */
+AIRMASS_C_API int32_t airmass_preset_names(char** out, char* message, size_t message_size);
+AIRMASS_C_API int32_t airmass_chapman_method_names(char** out, char* message, size_t message_size);
+
+/* ---- Scenes ---------------------------------------------------------------------------- */
+
+/* Per-constituent overrides, matched by name (an unknown name is an error). */
+typedef struct airmass_constituent_override {
+    const char* name;
+    int32_t enabled;        /* 0: the constituent is removed (costs nothing)            */
+    double density_scale;   /* NaN: keep; ≥ 0, multiplies its scattering and absorption */
+    double scale_height_m;  /* NaN: keep; exponential profiles only, > 0                */
+} airmass_constituent_override;
+
+/* Where a scene comes from, plus overrides. Exactly one of `toml` (scene text, which may
+ * itself say preset = "name" and override parts of it; docs/scene.md) and `preset` is set.
+ * Numeric overrides: NaN keeps the scene's value. Call airmass_scene_spec_init first. */
+typedef struct airmass_scene_spec {
+    uint32_t struct_size;
+    const char* toml;
+    const char* preset;
+    const char* source_name;     /* for messages; NULL: "<scene>" / "<preset NAME>"   */
+    double sun_elevation_deg;    /* [-90, 90]                                          */
+    double sun_rotation_deg;     /* Blender Sky Texture rotation: 0 → +Y, 90 → +X      */
+    double altitude_m;           /* observer altitude above the surface                */
+    double planet_radius_m;
+    double atmosphere_top_m;     /* radius of the atmosphere's top                     */
+    double ground_albedo;
+    int32_t basis;               /* -1 keep, 0 spectral (the scene's wavelengths, or
+                                    360:830:10 nm), 1 rgb-schuler (615/535/445 nm)     */
+    uint32_t constituent_count;
+    const airmass_constituent_override* constituents;
+    /* Camera for the VDB `view` region (has_camera = 1): scene frame, metres. */
+    int32_t has_camera;
+    double camera_position_m[3];
+    double camera_direction[3];
+    double camera_up[3];
+    double camera_fov_deg;       /* horizontal (sensor fit AUTO with width ≥ height)   */
+    double camera_max_distance_m;
+    int32_t camera_width, camera_height;
+} airmass_scene_spec;
+
+AIRMASS_C_API void airmass_scene_spec_init(airmass_scene_spec* spec);
+
+/* Parses, applies the overrides and validates. On success, and when `scene_json` is not
+ * NULL, returns the resulting scene as JSON (scene_to_json) for the host's UI. */
+AIRMASS_C_API int32_t airmass_validate_scene(const airmass_scene_spec* spec, char** scene_json, char* message,
+                                             size_t message_size);
+
+/* ---- Progress and cancellation ------------------------------------------------------------ */
+
+typedef struct airmass_cancel_token airmass_cancel_token;
+AIRMASS_C_API airmass_cancel_token* airmass_cancel_token_new(void);
+AIRMASS_C_API void airmass_cancel_token_request(airmass_cancel_token* token); /* any thread */
+AIRMASS_C_API void airmass_cancel_token_reset(airmass_cancel_token* token);
+AIRMASS_C_API int32_t airmass_cancel_token_requested(const airmass_cancel_token* token);
+AIRMASS_C_API void airmass_cancel_token_free(airmass_cancel_token* token);
+
+/* Returns nonzero to request cancellation. Called on the calling thread. */
+typedef int32_t (*airmass_progress_fn)(void* user, double fraction);
+
+typedef struct airmass_job {
+    uint32_t struct_size;
+    airmass_progress_fn progress;  /* may be NULL */
+    void* user;
+    airmass_cancel_token* cancel;  /* may be NULL */
+} airmass_job;
+
+/* ---- Sky texture ---------------------------------------------------------------------------- */
+
+typedef struct airmass_sky_options {
+    uint32_t struct_size;
+    int32_t width, height;  /* pixels; height 0: width / 2                              */
+    int32_t view_samples;   /* samples per scattering constituent along each view ray   */
+    const char* chapman;    /* method name (airmass_chapman_method_names); NULL: default */
+    int32_t sun_disc;       /* 1: include the solar disc                                 */
+    int32_t upper_only;     /* 1: compute only the upper hemisphere (the rest is 0)      */
+    int32_t threads;        /* 0: all hardware threads                                   */
+    int32_t grid;           /* sky grid intervals (sky.hpp SkySettings::grid): -1 automatic,
+                               0 every pixel, N > 0 an N-interval grid interpolated per pixel */
+} airmass_sky_options;
+
+AIRMASS_C_API void airmass_sky_options_init(airmass_sky_options* options);
+
+/* Writes the sky as a 32-bit float EXR in Blender's equirectangular convention (docs/sky.md),
+ * atomically. `job` may be NULL. */
+AIRMASS_C_API int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_options* options,
+                                            const char* path, const airmass_job* job, char* message,
+                                            size_t message_size);
+
+/* ---- Sunlight at the observer (for a Sun lamp) ------------------------------------------------ */
+
+typedef struct airmass_sun_light {
+    uint32_t struct_size;
+    double direction[3];           /* unit vector toward the sun, scene frame (Z up)               */
+    double irradiance_rgb[3];      /* transmitted direct sun, linear Rec.709, W m⁻² in the sky
+                                      texture's units (Σ E·T·CMF·Δλ, no 683 lm/W) — what a Sun lamp
+                                      of strength S and colour C gives as S·C                      */
+    double irradiance_top_rgb[3];  /* the same at the top of the atmosphere (no extinction)        */
+    double transmittance_rgb[3];   /* irradiance_rgb / irradiance_top_rgb (0 where the top is 0)   */
+    double angular_diameter_deg;   /* of the sun disc                                              */
+    int32_t below_horizon;         /* 1 when the planet blocks the sun at the observer             */
+} airmass_sun_light;
+
+AIRMASS_C_API int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char* chapman,
+                                                    airmass_sun_light* out, char* message, size_t message_size);
+
+/* ---- Volumes (vdb_export) ------------------------------------------------------------------------ */
+
+typedef struct airmass_vdb_options {
+    uint32_t struct_size;
+    const char* region;       /* "planet" | "view" (needs the spec's camera) | "box"          */
+    const char* unit;         /* "km" | "m"                                                    */
+    int32_t origin_center;    /* 0: origin on the surface below the observer; 1: planet centre */
+    double voxel_size;        /* in `unit`; NaN or ≤ 0: automatic                              */
+    double box[6];            /* region "box": xmin, ymin, zmin, xmax, ymax, zmax in `unit`     */
+    double tolerance;         /* NaN: default (1e-4)                                            */
+    double max_dense_mb;      /* NaN: default (1024)                                            */
+    int32_t tile_voxels;      /* 0 automatic tiling, -1 one tile, N > 0 tiles of N voxels       */
+} airmass_vdb_options;
+
+AIRMASS_C_API void airmass_vdb_options_init(airmass_vdb_options* options);
+
+/* Writes the grids (one per active constituent; several files when tiled) atomically and,
+ * when `stats_json` is not NULL, returns {"files": [...], "voxel_size", "unit", "tiles",
+ * "active_voxels", "dense_bytes", "memory_bytes", "file_bytes", "summary"}. */
+AIRMASS_C_API int32_t airmass_write_vdb(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                        const char* path, const airmass_job* job, char** stats_json,
+                                        char* message, size_t message_size);
+
+/* The analytic density description (docs/vdb.md, "Analytic density") as JSON. */
+AIRMASS_C_API int32_t airmass_analytic_density_json(const airmass_scene_spec* spec,
+                                                    const airmass_vdb_options* options, char** json,
+                                                    char* message, size_t message_size);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AIRMASS_C_H */

@@ -1,0 +1,250 @@
+"""The C ABI of libairmass_c (plugin/capi/include/airmass/airmass_c.h), outside Blender:
+
+    /usr/bin/python3 tests/blender/test_c_abi.py --lib build/lib/libairmass_c.so
+
+Through ctypes, the way the add-on uses it, plus raw calls that a careless host could make:
+NULL pointers, wrong struct sizes, tiny or absent message buffers, an unwritable output —
+each a status and a message, never a crash. The sun transmittance is checked against an
+independent quadrature (scipy) of a one-constituent atmosphere. Exit status 1 on failure.
+"""
+
+import argparse
+import ctypes
+import math
+import os
+import sys
+import tempfile
+import threading
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "addon", "airmass_blender"))
+
+sys.dont_write_bytecode = True  # keep the source tree clean
+import native  # noqa: E402  (pure Python: no bpy)
+
+FAILURES = []
+
+
+def case(fn):
+    try:
+        fn()
+        print("PASS", fn.__name__)
+    except Exception as e:  # noqa: BLE001
+        FAILURES.append(fn.__name__)
+        print("FAIL", fn.__name__, "-", type(e).__name__, e)
+
+
+def expect_error(call, status, needle):
+    try:
+        call()
+    except native.NativeError as e:
+        assert e.status == status, "status %s (%s), expected %s" % (e.status, e, status)
+        assert needle in str(e), "message %r lacks %r" % (str(e), needle)
+        return str(e)
+    raise AssertionError("no error (expected %r)" % needle)
+
+
+# One exponential, grey constituent: T toward the sun has a closed-form reference by quadrature.
+GREY_TOML = """
+name = "grey"
+[planet]
+radius_km = 6360.0
+atmosphere_top_km = 6420.0
+[spectrum]
+basis = "rgb-schuler"
+[[constituent]]
+name = "haze"
+profile = { type = "exponential", scale_height_km = 2.0 }
+absorption = { law = "constant", value_per_m = 2.0e-5 }
+"""
+
+
+def test_version():
+    assert native.library().airmass_abi_version() == native.ABI_VERSION
+    assert native.version()
+    assert native.has_vdb()
+    assert "earth" in native.preset_names()
+    assert "airmass" in native.chapman_method_names() and "exact" in native.chapman_method_names()
+    lib = native.library()
+    for s in (0, 1, 2, 3, 4, 5, 6, 99, 12345):
+        assert lib.airmass_status_name(s)
+
+
+def test_null_and_struct_size():
+    lib = native.library()
+    buf = ctypes.create_string_buffer(256)
+    st = lib.airmass_validate_scene(None, None, buf, 256)
+    assert st == native.INVALID_ARGUMENT and b"NULL" in buf.value, (st, buf.value)
+    spec = native.SceneSpec()
+    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    spec.struct_size = 8  # an older or newer host
+    spec.preset = b"earth"
+    st = lib.airmass_validate_scene(ctypes.byref(spec), None, buf, 256)
+    assert st == native.INVALID_ARGUMENT and b"struct_size" in buf.value, (st, buf.value)
+    # Both or neither source.
+    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    st = lib.airmass_validate_scene(ctypes.byref(spec), None, buf, 256)
+    assert st == native.INVALID_ARGUMENT and b"exactly one" in buf.value, buf.value
+    # No message buffer at all, and a 1-byte one: status only, no crash, NUL-terminated.
+    st = lib.airmass_validate_scene(None, None, None, 0)
+    assert st == native.INVALID_ARGUMENT
+    tiny = ctypes.create_string_buffer(b"x" * 7, 8)
+    st = lib.airmass_validate_scene(None, None, tiny, 8)
+    assert st == native.INVALID_ARGUMENT and len(tiny.value) == 7, tiny.raw
+    one = ctypes.create_string_buffer(b"y", 1)
+    lib.airmass_validate_scene(None, None, one, 1)
+    assert one.raw == b"\0"
+    # Long calls with NULL options / path.
+    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    spec.preset = b"earth"
+    st = lib.airmass_write_sky_exr(ctypes.byref(spec), None, b"/tmp/x.exr", None, buf, 256)
+    assert st == native.INVALID_ARGUMENT, st
+    opts = native.SkyOptions()
+    lib.airmass_sky_options_init(ctypes.byref(opts))
+    st = lib.airmass_write_sky_exr(ctypes.byref(spec), ctypes.byref(opts), None, None, buf, 256)
+    assert st == native.INVALID_ARGUMENT, st
+    st = lib.airmass_sun_light_at_observer(ctypes.byref(spec), None, None, buf, 256)
+    assert st == native.INVALID_ARGUMENT, st
+    # Freeing NULL and a NULL token is harmless.
+    lib.airmass_string_free(None)
+    lib.airmass_cancel_token_free(None)
+    lib.airmass_cancel_token_request(None)
+
+
+def test_scene_errors_name_fields():
+    s = native.Spec(preset="earth")
+    s.planet_radius_m = -1.0
+    expect_error(lambda: native.validate_scene(s), native.SCENE_ERROR, "planet.radius_km = -0.001")
+    s = native.Spec(preset="earth")
+    s.atmosphere_top_m = 6000e3
+    expect_error(lambda: native.validate_scene(s), native.SCENE_ERROR, "planet.atmosphere_top_km")
+    s = native.Spec(preset="earth")
+    s.altitude_m = -5.0
+    expect_error(lambda: native.validate_scene(s), native.SCENE_ERROR, "observer.altitude_km")
+    s = native.Spec(preset="earth")
+    s.constituents = [("mie", True, -1.0, None)]
+    expect_error(lambda: native.validate_scene(s), native.SCENE_ERROR, "density_scale")
+    s = native.Spec(toml="this is = not [toml", source_name="broken.toml")
+    expect_error(lambda: native.validate_scene(s), native.SCENE_ERROR, "broken.toml")
+    s = native.Spec(preset="earth")
+    expect_error(lambda: native.sun_light(s, chapman="nope"), native.INVALID_ARGUMENT, "airmass")
+    # Overrides land where they should.
+    s = native.Spec(preset="earth")
+    s.sun_elevation_deg, s.sun_rotation_deg, s.altitude_m = 33.0, 725.0, 1500.0
+    s.basis = 1
+    j = native.validate_scene(s)
+    assert j["sun"]["elevation_deg"] == 33.0 and abs(j["sun"]["azimuth_deg"] - 5.0) < 1e-12, j["sun"]
+    assert j["observer"]["altitude_m"] == 1500.0
+
+
+def test_sun_transmittance_vs_quadrature():
+    from scipy.integrate import quad
+    R, top, H, sigma = 6360e3, 6420e3, 2000.0, 2.0e-5
+    for elevation in (90.0, 30.0, 5.0, 0.0):
+        s = native.Spec(toml=GREY_TOML)
+        s.sun_elevation_deg, s.altitude_m = elevation, 500.0
+        light = native.sun_light(s, chapman="exact")
+        r0 = R + 500.0
+        mu = math.sin(math.radians(elevation))
+        t_top = -r0 * mu + math.sqrt((r0 * mu) ** 2 + top * top - r0 * r0)
+
+        def rho(t):
+            r = math.sqrt(r0 * r0 + t * t + 2.0 * r0 * t * mu)
+            return math.exp(-(r - R) / H)
+
+        mass = quad(rho, 0.0, t_top, epsabs=0.0, epsrel=1e-12, limit=400)[0]
+        expected = math.exp(-sigma * mass)
+        for c in range(3):
+            got = light["transmittance_rgb"][c]
+            assert abs(got - expected) <= 1e-9 * expected + 1e-15, (elevation, c, got, expected)
+        assert not light["below_horizon"]
+    s = native.Spec(toml=GREY_TOML)
+    s.sun_elevation_deg = -20.0
+    light = native.sun_light(s)
+    assert light["below_horizon"] and light["irradiance_rgb"] == (0.0, 0.0, 0.0), light
+
+
+def test_unwritable_and_atomic():
+    tmp = tempfile.mkdtemp()
+    blocker = os.path.join(tmp, "file")
+    open(blocker, "w").close()
+    s = native.Spec(preset="earth")
+    expect_error(lambda: native.write_sky_exr(s, os.path.join(blocker, "sky.exr"), width=32), native.IO_ERROR,
+                 "sky.exr")
+    expect_error(lambda: native.write_sky_exr(s, os.path.join(tmp, "sky.png"), width=32), native.IO_ERROR, ".exr")
+    expect_error(lambda: native.write_vdb(s, os.path.join(blocker, "a.vdb"), region="planet", voxel_size=50.0),
+                 native.IO_ERROR, "a.vdb")
+    assert sorted(os.listdir(tmp)) == ["file"], os.listdir(tmp)
+    # Settings errors name the option.
+    expect_error(lambda: native.write_sky_exr(s, os.path.join(tmp, "sky.exr"), width=0), native.SETTINGS_ERROR,
+                 "width")
+    expect_error(lambda: native.write_vdb(s, os.path.join(tmp, "a.vdb"), region="planet", voxel_size=-1.0),
+                 native.SETTINGS_ERROR, "voxel")
+    expect_error(lambda: native.write_vdb(s, os.path.join(tmp, "a.vdb"), region="moon"),
+                 native.INVALID_ARGUMENT, "planet, view or box")
+    assert sorted(os.listdir(tmp)) == ["file"], os.listdir(tmp)
+
+
+def test_concurrent_calls():
+    tmp = tempfile.mkdtemp()
+    errors = []
+
+    def work(i):
+        try:
+            s = native.Spec(preset="earth")
+            s.sun_elevation_deg = 10.0 * i
+            native.write_sky_exr(s, os.path.join(tmp, "sky%d.exr" % i), width=64, view_samples=4)
+            native.sun_light(s)
+        except Exception as e:  # noqa: BLE001
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    assert sorted(os.listdir(tmp)) == ["sky%d.exr" % i for i in range(4)], os.listdir(tmp)
+
+
+def test_analytic_density_and_vdb():
+    s = native.Spec(preset="earth")
+    d = native.analytic_density(s, unit="km")
+    assert d["length_unit"] == "km" and d["planet_radius"] == 6360.0
+    assert [c["name"] for c in d["constituents"]] == ["rayleigh", "mie", "ozone"]
+    s.constituents = [("ozone", False, None, None), ("mie", True, 2.0, 1500.0)]
+    d2 = native.analytic_density(s, unit="km")
+    assert [c["name"] for c in d2["constituents"]] == ["rayleigh", "mie"]
+    mie1 = d["constituents"][1]
+    mie2 = d2["constituents"][1]
+    assert abs(mie2["scattering_rgb"][1] - 2.0 * mie1["scattering_rgb"][1]) < 1e-15
+    assert mie2["profile"]["scale_height"] == 1.5
+    tmp = tempfile.mkdtemp()
+    seen = []
+    p = native.Progress(lambda f: seen.append(f) and False)
+    stats = native.write_vdb(native.Spec(preset="earth"), os.path.join(tmp, "a.vdb"), progress=p,
+                             region="box", box=(-20, -20, 0, 20, 20, 20), voxel_size=2.0)
+    p.close()
+    assert stats["files"] and all(os.path.isfile(f) for f in stats["files"]), stats
+    assert stats["voxel_size"] == 2.0 and stats["active_voxels"] > 0
+    assert seen and seen[-1] == 1.0
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--lib", required=True)
+    args = ap.parse_args()
+    os.environ[native.LIBRARY_ENV] = os.path.abspath(args.lib)
+    native.reset()
+    for fn in (test_version, test_null_and_struct_size, test_scene_errors_name_fields,
+               test_sun_transmittance_vs_quadrature, test_unwritable_and_atomic, test_concurrent_calls,
+               test_analytic_density_and_vdb):
+        case(fn)
+    if FAILURES:
+        print("FAILED:", ", ".join(FAILURES))
+        sys.exit(1)
+    print("all C ABI tests passed")
+
+
+if __name__ == "__main__":
+    main()
