@@ -17,6 +17,8 @@ void add_chapman_command(CLI::App& app);  // cmd_chapman.cpp
 void add_eval_command(CLI::App& app);     // cmd_eval.cpp
 void add_sky_command(CLI::App& app);      // cmd_sky.cpp
 void add_vdb_command(CLI::App& app);      // cmd_vdb.cpp
+void add_render_command(CLI::App& app);   // cmd_render.cpp
+void add_compare_command(CLI::App& app);  // cmd_compare.cpp
 
 // `airmass report <topic>`: measured speed-vs-accuracy trade tables.
 void add_report_chapman(CLI::App& report);  // cmd_report_chapman.cpp

@@ -1,0 +1,608 @@
+// `airmass compare`: render one camera natively and in headless Blender along the three ways
+// a user brings Airmass into Blender — the sky texture as World, the analytic node-tree volume
+// and the VDB volume, both lit by a Sun lamp — and write a report of the differences
+// (docs/compare.md).
+//
+//   airmass compare (--preset NAME | SCENE.toml) -o DIR [--width W --height H --samples S
+//       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM --step KM
+//       --max-steps N --blender EXE --python EXE --scripts DIR --addon DIR --threads N
+//       --timeout S --sun-elevation DEG --sun-rotation DEG --volume-modes split,rgb
+//       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
+//       --max-distance KM --quiet]
+//
+// What it does, in order (every file lands in DIR):
+//   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
+//      functions), native_hg_spectral.exr (Henyey–Greenstein phases), native_matched.exr
+//      (what Blender renders from the volume export: HG + the renderer RGB model) and, for
+//      the VDB path, native_matched_box.exr (the same medium cut to the exported box);
+//   2. the inputs Blender needs: sky.exr (render_sky from the camera's altitude, no sun
+//      disc, the default sky grid, ≥ --sky-oversample texels per camera pixel), analytic.json (analytic_density_json, km),
+//      atmosphere.vdb (export_vdb of a box around what the camera sees, km);
+//   3. job.json, then one Blender process per path running compare/blender_render.py
+//      (K seeds each), its log in blender_<path>.log;
+//   4. compare/report.py (Debian's python3): report.md, PNGs and summary.json.
+// A path that cannot run (an export refused, Blender failing, a missing script) is recorded
+// with an "error" in job.json and summary.json; the other paths and the report go on.
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include "airmass/image_io.hpp"
+#include "airmass/progress.hpp"
+#include "airmass/render.hpp"
+#include "airmass/scene_io.hpp"
+#include "airmass/sky.hpp"
+#include "airmass/vdb_export.hpp"
+#include "commands.hpp"
+
+namespace airmass::cli::render_detail {
+// Defined in cmd_render.cpp (this declaration must stay identical to the definition there).
+struct CameraOverrides {
+    std::string position_m, direction, up;
+    std::optional<double> fov_deg, max_distance_km;
+};
+void add_camera_options(CLI::App* cmd, CameraOverrides& c);
+Scene load_render_scene(const std::string& scene_path, const std::string& preset,
+                        const std::optional<double>& sun_elevation_deg, const std::optional<double>& sun_rotation_deg,
+                        const char* command, const CameraOverrides& camera);
+std::array<double, 3> exporter_rgb_wavelengths(const Scene& scene, const std::string& which);
+CameraModel resized_camera(const Scene& scene, Projection projection, const std::optional<int>& width,
+                           const std::optional<int>& height, SensorFit fit);
+}  // namespace airmass::cli::render_detail
+
+namespace airmass::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr const char* kPaths[] = {"sky_texture", "analytic_volume", "vdb_volume"};
+
+struct CompareOptions {
+    std::string scene_path, preset, output;
+    std::optional<int> width, height;
+    bool panoramic = false;
+    int samples = 64;       // Cycles samples per seed for the volume paths
+    int seeds = 4;          // independent Blender renders per volume path (noise estimate)
+    int sky_samples = 64;   // per seed for the sky texture path (box filter: pixel-area noise only)
+    std::string paths = "sky_texture,analytic_volume,vdb_volume";
+    std::string volume_modes = "split,rgb";
+    int view_samples = 64;  // native: samples per constituent along each view ray
+    double sky_oversample = 4.0;
+    int sky_min_width = 2048;
+    int sky_max_width = 8192;
+    std::optional<double> voxel_size_km;
+    double max_dense_mb = 600.0;
+    double step_km = 1.0;
+    int max_steps = 1024;
+    std::string blender = "blender";
+    std::string python = "/usr/bin/python3";
+    std::string scripts, addon;
+    int threads = 0;
+    double timeout_s = 3600.0;
+    std::optional<double> sun_elevation_deg, sun_rotation_deg;
+    bool quiet = false;
+    bool no_report = false;
+    render_detail::CameraOverrides camera;
+};
+
+void say(bool quiet, const std::string& msg) {
+    if (!quiet) std::fprintf(stderr, "compare: %s\n", msg.c_str());
+}
+
+void write_text(const fs::path& path, const std::string& text) { write_text_atomic(path, text); }
+
+// compare/ beside the source tree: --scripts, $AIRMASS_COMPARE_DIR, <exe>/../../compare (a build
+// directory inside the repository), <exe>/../share/airmass/compare, ./compare.
+fs::path find_scripts_dir(const std::string& given) {
+    std::vector<fs::path> candidates;
+    if (!given.empty()) candidates.emplace_back(given);
+    else {
+        if (const char* env = std::getenv("AIRMASS_COMPARE_DIR")) candidates.emplace_back(env);
+        std::error_code ec;
+        const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+        if (!ec) {
+            candidates.push_back(exe.parent_path() / ".." / ".." / "compare");
+            candidates.push_back(exe.parent_path() / ".." / "share" / "airmass" / "compare");
+        }
+        candidates.emplace_back(fs::current_path() / "compare");
+    }
+    for (const auto& c : candidates)
+        if (fs::is_regular_file(c / "blender_render.py") && fs::is_regular_file(c / "report.py"))
+            return fs::weakly_canonical(c);
+    std::string tried;
+    for (const auto& c : candidates) tried += " " + c.string();
+    throw CliError("compare: cannot find the compare scripts (blender_render.py, report.py); tried" + tried +
+                   " (pass --scripts DIR or set AIRMASS_COMPARE_DIR)");
+}
+
+// Runs argv with stdout and stderr appended to `log`; returns the exit status (128 + signal
+// when killed). Polls `cancel` and the timeout; either kills the child's process group.
+int run_process(const std::vector<std::string>& argv, const fs::path& log, double timeout_s, const CancelFlag& cancel,
+                bool& timed_out) {
+    timed_out = false;
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (fd < 0) throw CliError("compare: cannot open log " + log.string());
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+        ::close(fd);
+        throw CliError("compare: fork failed");
+    }
+    if (pid == 0) {
+        ::setpgid(0, 0);
+        ::dup2(fd, 1);
+        ::dup2(fd, 2);
+        ::execvp(args[0], args.data());
+        std::fprintf(stderr, "compare: cannot run %s\n", args[0]);
+        ::_exit(127);
+    }
+    ::close(fd);
+    ::setpgid(pid, pid);
+    const auto t0 = std::chrono::steady_clock::now();
+    int status = 0;
+    bool killed = false;
+    for (;;) {
+        const pid_t r = ::waitpid(pid, &status, WNOHANG);
+        if (r == pid) break;
+        if (r < 0) return -1;
+        const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (!killed && (cancel.requested() || elapsed > timeout_s)) {
+            timed_out = !cancel.requested();
+            ::kill(-pid, SIGTERM);
+            killed = true;
+            for (int i = 0; i < 30 && ::waitpid(pid, &status, WNOHANG) == 0; ++i)
+                std::this_thread::sleep_for(std::chrono::milliseconds(100));
+            ::kill(-pid, SIGKILL);
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (WIFEXITED(status)) return WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+    return -1;
+}
+
+std::string tail_of(const fs::path& log, std::size_t lines) {
+    std::ifstream in(log);
+    std::vector<std::string> all;
+    for (std::string l; std::getline(in, l);) all.push_back(l);
+    std::string out;
+    for (std::size_t i = all.size() > lines ? all.size() - lines : 0; i < all.size(); ++i) out += all[i] + "\n";
+    return out;
+}
+
+// The box of the scene frame (metres) holding what the camera sees up to its max distance,
+// within the atmosphere: the bounding box of the camera and of points at max distance along
+// a 17 × 17 grid of pixel directions, cut to the shell's height range.
+MediumBox view_box(const Scene& scene, const CameraModel& cam) {
+    const double D = scene.camera->max_distance_m;
+    glm::dvec3 lo = cam.pose.position_m, hi = cam.pose.position_m;
+    constexpr int n = 16;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const glm::dvec3 d = camera_ray_direction(cam, cam.width * double(i) / n, cam.height * double(j) / n);
+            const glm::dvec3 p = cam.pose.position_m + D * d;
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
+    // The medium spans altitudes [0, top]; below the ground nothing is seen, above the top
+    // nothing scatters. z of the ground at horizontal distance ρ from the axis: −ρ²/(R + sqrt(R² − ρ²)).
+    const double rho = std::min(std::max({std::abs(lo.x), std::abs(hi.x), std::abs(lo.y), std::abs(hi.y)}), R);
+    const double z_ground = -rho * rho / (R + std::sqrt(std::max(R * R - rho * rho, 0.0)));
+    lo.z = std::max(lo.z, z_ground - 1.0);
+    hi.z = std::min(hi.z, top);
+    // A box that is flat (camera above the top looking up, say) holds no medium.
+    if (!(hi.z > lo.z)) hi.z = lo.z + 1.0;
+    // Pad by a metre so the camera is strictly inside when it sits on a face.
+    return {lo - glm::dvec3(1.0), hi + glm::dvec3(1.0)};
+}
+
+json native_entry(const std::string& file, double seconds, const RenderSettings& s) {
+    json j{{"file", file},
+           {"seconds", seconds},
+           {"renderer_matched", s.renderer_matched},
+           {"color_model", s.color == ColorModel::spectral ? "spectral" : "renderer_rgb"},
+           {"view_samples", s.view_samples}};
+    if (s.medium_box) {
+        const auto& b = *s.medium_box;
+        j["medium_box_km"] = {b.min_m.x / 1e3, b.min_m.y / 1e3, b.min_m.z / 1e3,
+                              b.max_m.x / 1e3, b.max_m.y / 1e3, b.max_m.z / 1e3};
+    }
+    return j;
+}
+
+void run_compare(const CompareOptions& o) {
+    using namespace render_detail;
+    const Scene scene =
+        load_render_scene(o.scene_path, o.preset, o.sun_elevation_deg, o.sun_rotation_deg, "compare", o.camera);
+    const Projection projection = o.panoramic ? Projection::equirectangular : Projection::perspective;
+    const CameraModel cam = resized_camera(scene, projection, o.width, o.height, SensorFit::automatic);
+    auto range = [](const char* opt, double v, double lo, double hi) {
+        if (!(v >= lo && v <= hi))
+            throw CliError(std::string("compare: ") + opt + " " + std::to_string(v) + ": must be in [" +
+                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    };
+    range("--samples", o.samples, 1, 1 << 20);
+    range("--seeds", o.seeds, 2, 1000);
+    range("--view-samples", o.view_samples, 1, 65536);
+    range("--sky-oversample", o.sky_oversample, 0.25, 16);
+    range("--step", o.step_km, 1e-4, 1e3);
+    range("--max-steps", o.max_steps, 2, 65536);
+    range("--timeout", o.timeout_s, 1, 1e6);
+    std::vector<std::string> paths;
+    {
+        std::stringstream ss(o.paths);
+        for (std::string p; std::getline(ss, p, ',');) {
+            if (std::find(std::begin(kPaths), std::end(kPaths), p) == std::end(kPaths))
+                throw CliError("compare: --paths: '" + p + "' is not one of sky_texture, analytic_volume, vdb_volume");
+            paths.push_back(p);
+        }
+        if (paths.empty()) throw CliError("compare: --paths: empty");
+    }
+    auto wants = [&](const char* p) { return std::find(paths.begin(), paths.end(), p) != paths.end(); };
+    const fs::path scripts = find_scripts_dir(o.scripts);
+    const fs::path addon = o.addon.empty() ? scripts.parent_path() / "addon" : fs::path(o.addon);
+    const fs::path dir = fs::absolute(o.output);
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir)) throw CliError("compare: cannot create output directory " + dir.string());
+
+    CancelFlag cancel;
+    InterruptGuard guard(cancel);
+    const bool bar_on = stderr_is_terminal() && !o.quiet;
+    auto check_cancel = [&] {
+        if (cancel.requested()) throw Cancelled("compare: cancelled");
+    };
+
+    json job;
+    job["format"] = "airmass-compare-job-1";
+    job["scene_name"] = scene.name;
+    job["scene_json"] = json::parse(scene_to_json(scene));
+    job["camera"] = json::parse(camera_to_json(cam, 1000.0));
+    job["camera"]["clip_start"] = 1e-4;
+    job["camera"]["clip_end"] = 1e6;
+    job["paths_requested"] = paths;
+    job["addon_dir"] = addon.string();
+    job["use_addon"] = "auto";
+    job["blender_threads"] = o.threads;
+    job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"vdb_volume", o.seeds}};
+    job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples}, {"vdb_volume", o.samples}};
+    job["errors"] = json::object();
+    {
+        json modes = json::array();
+        std::stringstream ss(o.volume_modes);
+        for (std::string m; std::getline(ss, m, ',');) {
+            if (m != "split" && m != "rgb")
+                throw CliError("compare: --volume-modes: '" + m + "' is not split or rgb");
+            modes.push_back(m);
+        }
+        if (modes.empty()) throw CliError("compare: --volume-modes: empty");
+        job["volume_modes"] = modes;
+    }
+
+    // ---- native renders -------------------------------------------------------------------
+    RenderSettings base;
+    base.camera = cam;
+    base.view_samples = o.view_samples;
+    base.threads = o.threads;
+    const std::array<double, 3> rgb_wl = exporter_rgb_wavelengths(scene, "auto");
+    const double R = scene.planet.radius_m;
+    const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
+    std::optional<MediumBox> box;
+    if (wants("vdb_volume")) box = view_box(scene, cam);
+
+    json natives = json::object();
+    auto native = [&](const std::string& name, RenderSettings s) {
+        check_cancel();
+        const fs::path file = dir / (name + ".exr");
+        const auto t0 = std::chrono::steady_clock::now();
+        FloatImage img;
+        {
+            ProgressBar bar("native " + name, std::size_t(cam.height), bar_on);
+            RenderHooks hooks;
+            hooks.cancel = &cancel;
+            hooks.work_done = [&bar](std::size_t n, std::size_t) { bar.advance(n); };
+            img = render_camera(scene, s, hooks);
+        }
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        check_cancel();
+        write_exr_atomic(file, img, render_metadata(scene, s));
+        natives[name] = native_entry(file.filename().string(), seconds, s);
+        say(o.quiet, "native " + name + ": " + std::to_string(seconds) + " s");
+    };
+    native("native_physical", base);
+    if (wants("sky_texture")) {
+        // The sky texture path is rendered with Cycles' Box filter (the pixel's mean): a texture
+        // of finite resolution cannot put the horizon's jump where a single ray per pixel finds
+        // it, but it integrates to the right pixel mean (docs/compare.md).
+        RenderSettings s = base;
+        s.pixel_filter = PixelFilter::box;
+        native("native_physical_box", s);
+    }
+    {
+        RenderSettings s = base;
+        s.renderer_matched = true;
+        native("native_hg_spectral", s);
+        s.color = ColorModel::renderer_rgb;
+        s.rgb_wavelengths_nm = rgb_wl;
+        native("native_matched", s);
+        if (box) {
+            s.medium_box = box;
+            native("native_matched_box", s);
+        }
+    }
+    job["native"] = natives;
+
+    // ---- the sun lamp and the planet, km -----------------------------------------------------
+    const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+    const std::array<double, 3> e = sun_irradiance_rgb(scene);
+    const double strength = std::max({e[0], e[1], e[2]});
+    job["sun"] = {{"direction", {sun.x, sun.y, sun.z}},
+                  {"irradiance_rgb", e},
+                  {"strength", strength},
+                  {"color", strength > 0 ? json{e[0] / strength, e[1] / strength, e[2] / strength} : json{1, 1, 1}},
+                  {"angle_deg", 0.0},
+                  {"elevation_deg", scene.sun.elevation_deg},
+                  {"rotation_deg", scene.sun.azimuth_deg}};
+    const glm::dvec3 q = cam.pose.position_m - glm::dvec3(0, 0, -R);
+    const glm::dvec3 nadir = glm::normalize(q);
+    job["planet"] = {{"radius", R / 1e3},
+                     {"top", scene.planet.atmosphere_top_m / 1e3},
+                     {"center", {0.0, 0.0, -R / 1e3}},
+                     {"albedo", scene.planet.ground_albedo},
+                     {"nadir", {nadir.x, nadir.y, nadir.z}}};
+    job["camera_altitude_m"] = frame.altitude_m;
+    job["rgb_wavelengths_nm"] = rgb_wl;
+    job["ground"] = {{"ground_segments", 256}, {"ground_first_km", 1e-4}, {"ground_growth", 1.06},
+                     {"ground_max_step_deg", 0.5}};
+    job["volume"] = {{"step_km", o.step_km}, {"max_steps", o.max_steps}, {"domain_margin_km", 5.0}};
+
+    // ---- inputs per path ---------------------------------------------------------------------
+    if (wants("sky_texture")) {
+        try {
+            check_cancel();
+            // Texels no larger than the camera's pixels / oversample at the image centre (where a
+            // perspective pixel subtends the most): width = oversample · 2π / pixel angle.
+            double pixel_rad;
+            if (projection == Projection::perspective) {
+                const double f_px = 0.5 * cam.width / std::tan(0.5 * horizontal_fov_deg(cam) * std::numbers::pi / 180.0);
+                pixel_rad = 1.0 / f_px;
+            } else {
+                pixel_rad = 2.0 * std::numbers::pi / cam.width;
+            }
+            int w = int(std::ceil(o.sky_oversample * 2.0 * std::numbers::pi / pixel_rad / 4.0)) * 4;
+            w = std::clamp(std::max(w, o.sky_min_width), 64, std::max(o.sky_max_width, 64));
+            Scene sky_scene = scene;
+            sky_scene.observer.altitude_m = frame.altitude_m;
+            SkySettings ss;
+            ss.width = w;
+            ss.height = w / 2;
+            ss.view_samples = o.view_samples;
+            ss.sun_disc = false;
+            ss.grid = -1;  // what `airmass sky` does by default (its error: docs/sky.md)
+            ss.threads = o.threads;
+            const auto t0 = std::chrono::steady_clock::now();
+            FloatImage sky;
+            {
+                ProgressBar bar("sky texture " + std::to_string(w) + "x" + std::to_string(w / 2), 0, bar_on);
+                RenderHooks hooks;
+                hooks.cancel = &cancel;
+                hooks.work_done = [&bar](std::size_t n, std::size_t total) {
+                    bar.set_total(total);
+                    bar.advance(n);
+                };
+                sky = render_sky(sky_scene, ss, hooks);
+            }
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            write_exr_atomic(dir / "sky.exr", sky, sky_metadata(sky_scene, ss));
+            const double off_axis_m = std::hypot(cam.pose.position_m.x, cam.pose.position_m.y);
+            job["sky_texture"] = {{"file", (dir / "sky.exr").string()},
+                                  {"width", w},
+                                  {"height", w / 2},
+                                  {"seconds", seconds},
+                                  {"observer_altitude_m", frame.altitude_m},
+                                  {"grid", effective_sky_grid(sky_scene, ss)},
+                                  {"camera_off_axis_m", off_axis_m}};
+            say(o.quiet, "sky texture " + std::to_string(w) + "x" + std::to_string(w / 2) + ": " +
+                             std::to_string(seconds) + " s");
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::exception& ex) {
+            job["errors"]["sky_texture"] = std::string("sky texture: ") + ex.what();
+        }
+    }
+    std::vector<json> constituents;
+    if (wants("analytic_volume") || wants("vdb_volume")) {
+        try {
+            VdbOptions vo;
+            vo.unit = LengthUnit::km;
+            vo.origin = PlanetOrigin::surface;
+            const std::string text = analytic_density_json(scene, vo);
+            write_text(dir / "analytic.json", text);
+            const json a = json::parse(text);
+            for (const auto& c : a.at("constituents")) {
+                json cj = c;
+                const std::string ph = c.at("phase").get<std::string>();
+                cj["g_hg"] = (ph == "cornette_shanks" || ph == "henyey_greenstein") ? c.at("g").get<double>() : 0.0;
+                constituents.push_back(cj);
+            }
+            job["constituents"] = constituents;
+            job["analytic_json"] = (dir / "analytic.json").string();
+        } catch (const std::exception& ex) {
+            job["errors"]["analytic_volume"] = std::string("analytic density: ") + ex.what();
+            job["errors"]["vdb_volume"] = std::string("analytic density: ") + ex.what();
+        }
+    }
+    if (wants("vdb_volume") && !job["errors"].contains("vdb_volume")) {
+        try {
+            check_cancel();
+            VdbOptions vo;
+            vo.region = VdbRegion::box;
+            vo.unit = LengthUnit::km;
+            vo.origin = PlanetOrigin::surface;
+            vo.tile_voxels = -1;
+            vo.max_dense_mb = o.max_dense_mb;
+            vo.box = {box->min_m.x / 1e3, box->min_m.y / 1e3, box->min_m.z / 1e3,
+                      box->max_m.x / 1e3, box->max_m.y / 1e3, box->max_m.z / 1e3};
+            double vs = o.voxel_size_km ? *o.voxel_size_km : auto_voxel_size(scene, vo);
+            if (!o.voxel_size_km) {
+                // Coarsen until Blender 3.4's dense boxes (4 bytes per voxel per grid) fit the budget.
+                const glm::dvec3 ext = (box->max_m - box->min_m) / 1e3;
+                const double grids = std::max<double>(1.0, double(constituents.size()));
+                const double budget_voxels = o.max_dense_mb * 1024.0 * 1024.0 / 4.0 / grids;
+                const double need = std::cbrt(ext.x * ext.y * ext.z / budget_voxels);
+                if (need > vs) vs = need * 1.05;
+                if (vs > 2.0)
+                    throw CliError("the camera sees " + std::to_string(int(ext.x)) + " x " + std::to_string(int(ext.y)) +
+                                   " x " + std::to_string(int(ext.z)) +
+                                   " km of atmosphere; a VDB of it within --max-dense-mb needs " + std::to_string(vs) +
+                                   " km voxels (> 2 km, coarser than the thin layers); lower the camera's "
+                                   "max_distance_km or pass --voxel-size");
+            }
+            vo.voxel_size = vs;
+            const auto t0 = std::chrono::steady_clock::now();
+            VdbRunOptions run;
+            run.cancel = &cancel;
+            const VdbStats stats = export_vdb(scene, vo, dir / "atmosphere.vdb", run);
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            json files = json::array();
+            for (const auto& f : stats.files) files.push_back(fs::absolute(f).string());
+            job["vdb"] = {{"files", files},
+                          {"voxel_size", stats.voxel_size},
+                          {"box_km", vo.box},
+                          {"seconds", seconds},
+                          {"active_voxels", stats.active_voxels},
+                          {"dense_bytes", stats.dense_bytes},
+                          {"half_voxel_correction", true}};
+            say(o.quiet, "vdb: voxel " + std::to_string(stats.voxel_size) + " km, " + std::to_string(stats.files.size()) +
+                             " file(s), " + std::to_string(seconds) + " s");
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::exception& ex) {
+            job["errors"]["vdb_volume"] = std::string("VDB export: ") + ex.what();
+        }
+    }
+    write_text(dir / "job.json", job.dump(2) + "\n");
+
+    // ---- Blender --------------------------------------------------------------------------------
+    json blender_runs = json::object();
+    for (const auto& p : paths) {
+        check_cancel();
+        if (job["errors"].contains(p)) continue;
+        const fs::path log = dir / ("blender_" + p + ".log");
+        fs::remove(log, ec);
+        say(o.quiet, "blender " + p + " (" + std::to_string(job["seeds"][p].get<int>()) + " seeds x " +
+                         std::to_string(job["samples"][p].get<int>()) + " samples) ...");
+        const auto t0 = std::chrono::steady_clock::now();
+        bool timed_out = false;
+        const int rc = run_process({o.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
+                                    (scripts / "blender_render.py").string(), "--", (dir / "job.json").string(), p},
+                                   log, o.timeout_s, cancel, timed_out);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        check_cancel();
+        blender_runs[p] = {{"exit_status", rc}, {"wall_seconds", seconds}, {"log", log.filename().string()}};
+        if (rc != 0) {
+            job["errors"][p] = std::string("Blender ") + (timed_out ? "timed out" : "failed") + " (exit status " +
+                               std::to_string(rc) + "); last lines of " + log.filename().string() + ":\n" +
+                               tail_of(log, 12);
+        }
+        say(o.quiet, "blender " + p + ": " + (rc == 0 ? "ok" : "FAILED") + ", " + std::to_string(seconds) + " s");
+    }
+    job["blender_runs"] = blender_runs;
+    write_text(dir / "job.json", job.dump(2) + "\n");
+
+    // ---- report -------------------------------------------------------------------------------------
+    if (o.no_report) return;
+    const fs::path log = dir / "report.log";
+    fs::remove(log, ec);
+    bool timed_out = false;
+    const int rc = run_process({o.python, (scripts / "report.py").string(), dir.string()}, log, o.timeout_s, cancel,
+                               timed_out);
+    check_cancel();
+    if (rc != 0)
+        throw CliError("compare: the report generator failed (exit status " + std::to_string(rc) + "); see " +
+                       log.string() + ":\n" + tail_of(log, 20));
+    if (!o.quiet) std::fprintf(stderr, "%s", tail_of(log, 40).c_str());
+    say(o.quiet, "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
+}
+
+}  // namespace
+
+void add_compare_command(CLI::App& app) {
+    auto* cmd = app.add_subcommand(
+        "compare", "Render a camera natively and in headless Blender (sky texture, analytic and VDB volumes) and "
+                   "report the differences");
+    auto o = std::make_shared<CompareOptions>();
+    auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
+    auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
+    scene_opt->excludes(preset_opt);
+    cmd->add_option("-o,--output", o->output, "Output directory (report.md, summary.json, images)");
+    cmd->add_option("--width", o->width, "Image width [default: the camera's]");
+    cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]");
+    cmd->add_flag("--panoramic", o->panoramic, "Equirectangular panoramic camera instead of perspective");
+    cmd->add_option("--samples", o->samples, "Cycles samples per seed, volume paths")->capture_default_str();
+    cmd->add_option("--seeds", o->seeds, "Independent Blender renders per volume path (>= 2; noise estimate)")
+        ->capture_default_str();
+    cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")->capture_default_str();
+    cmd->add_option("--paths", o->paths, "Comma-separated subset of sky_texture,analytic_volume,vdb_volume")
+        ->capture_default_str();
+    cmd->add_option("--volume-modes", o->volume_modes,
+                    "Blender volume renders: split (grey, one Volume Scatter per render, summed: unbiased in "
+                    "Cycles 3.4) and/or rgb (one chromatic render with every closure, as users render)")
+        ->capture_default_str();
+    cmd->add_option("--view-samples", o->view_samples, "Native: samples per constituent along each view ray")
+        ->capture_default_str();
+    cmd->add_option("--sky-oversample", o->sky_oversample, "Sky texture texels per camera pixel (at the centre)")
+        ->capture_default_str();
+    cmd->add_option("--sky-min-width", o->sky_min_width, "Smallest sky texture width")->capture_default_str();
+    cmd->add_option("--sky-max-width", o->sky_max_width, "Largest sky texture width")->capture_default_str();
+    cmd->add_option("--voxel-size", o->voxel_size_km, "VDB voxel size, km [default: auto, within --max-dense-mb]");
+    cmd->add_option("--max-dense-mb", o->max_dense_mb, "Budget for Blender 3.4's dense VDB boxes, MiB")
+        ->capture_default_str();
+    cmd->add_option("--step", o->step_km, "Cycles volume step for the analytic volume, km")->capture_default_str();
+    cmd->add_option("--max-steps", o->max_steps, "Cycles volume_max_steps")->capture_default_str();
+    cmd->add_option("--blender", o->blender, "Blender executable")->capture_default_str();
+    cmd->add_option("--python", o->python, "Python with numpy, OpenImageIO, matplotlib (the report)")
+        ->capture_default_str();
+    cmd->add_option("--scripts", o->scripts, "Folder with blender_render.py and report.py [default: found]");
+    cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
+    cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();
+    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender process")->capture_default_str();
+    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees");
+    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation, degrees");
+    cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
+    cmd->add_flag("-q,--quiet", o->quiet, "No progress output");
+    render_detail::add_camera_options(cmd, o->camera);
+    cmd->callback([o] {
+        if (o->output.empty()) throw CliError("compare: -o/--output DIR is required");
+        run_compare(*o);
+    });
+}
+
+}  // namespace airmass::cli
