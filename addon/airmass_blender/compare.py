@@ -1,28 +1,586 @@
 """Compare with Native: render the active camera in Cycles and natively, and show the error.
 
-This module is the seam between the add-on and the comparison work (issue 6, "Render vs
-native"). The operator `airmass.compare` calls
+The add-on calls the same code as `airmass compare` (docs/compare.md): the zip bundles the
+CLI (bin/airmass) and its scripts (compare_scripts/blender_render.py, report.py), and this
+module
 
-    run(context, *, camera=None, samples=16, output_folder=None, progress=None) -> dict
+  1. writes the scene the panel describes — the library's own validated scene (preset or
+     file + every override, as JSON from the C ABI) written back as TOML, with the active
+     camera converted to the CLI's [camera] — and checks that the library reads that TOML
+     back as the same scene;
+  2. runs `airmass compare SCENE -o TMP --blender <this Blender> --scripts <zip>/compare_scripts
+     --addon <folder holding airmass_blender> ...` as a subprocess into a fresh temporary
+     folder beside the result, reading its progress lines (stderr) and the Blender logs;
+  3. cancels by SIGTERM: the CLI's interrupt guard turns it into a cancel flag, it kills its
+     Blender process group and exits; the temporary folder is then removed, so nothing is
+     left (the CLI itself does not clean up after a cancel);
+  4. on success swaps the folder in as <output>/<scene>_compare/ (the previous result is
+     replaced), loads each path's side-by-side and error PNGs as Blender images (reused by
+     name on a re-run, never duplicated) and returns a summary of summary.json's per-path
+     mean and 95th-percentile relative errors.
 
-and reports the returned dict's "summary" string. `progress(fraction)` may be called with
-a fraction in [0, 1]; returning True from it asks run() to stop (raise
-native.NativeError with status CANCELLED). Errors are raised as exceptions whose message
-names the problem; the operator turns them into reports.
+Camera. The CLI's camera is Blender's with sensor fit AUTO: `fov_deg` is the field of view
+along the larger image side with pixels square. Any Blender perspective camera without lens
+shift and with square pixels maps onto it exactly: the view frame (which includes the
+camera's own sensor fit) gives the half extent along the larger side, fov = 2 atan(half/depth).
+Positions: 1 Blender unit = 1 km (or 1 m, the panel's Length Unit), the frame of the
+volumes and of docs/scene.md (origin on the ground below the observer, Z up, planet centre
+at (0, 0, −R)); the CLI wants metres.
 
-Until the comparison is implemented, run() raises NotAvailable, which the operator
-reports as "not available yet".
+`run(context, ...)` does all of it synchronously (for scripts); the operator
+`airmass.compare` runs the same ComparePlan through jobs.JobOperatorMixin (worker thread,
+progress bar, Esc). Errors are raised as exceptions whose message names the problem.
 """
 
+import json
+import math
+import os
+import queue
+import re
+import shutil
+import signal
+import subprocess
+import tempfile
+import threading
 
-class NotAvailable(NotImplementedError):
-    pass
+import bpy
+from mathutils import Vector
+
+from . import native
+from .jobs import JobError, Plan
+from .properties import KM, SettingsError, make_spec, resolve_output_folder
+
+PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+CLI_ENV = "AIRMASS_CLI"  # overrides the bundled CLI (like AIRMASS_C_LIBRARY for the library)
+PATHS = ("sky_texture", "analytic_volume", "vdb_volume")
+IMAGE_ROLE = "airmass_role"
+IMAGE_PREFIX = "Airmass Compare "
+CANCEL_GRACE_S = 20.0  # the CLI needs ≤ 3 s to stop its Blender; then it is killed
+
+
+class CompareError(JobError):
+    """The comparison ran and failed; the message says why (the CLI's own words)."""
+
+
+class NotAvailable(SettingsError):  # noqa: N818 — the name the operator has always caught
+    """The bundled CLI or scripts are missing or do not run."""
+
+
+# ---- what the zip bundles ------------------------------------------------------------------
+
+def cli_path():
+    return os.environ.get(CLI_ENV) or os.path.join(PACKAGE_DIR, "bin", "airmass")
+
+
+def scripts_dir():
+    return os.path.join(PACKAGE_DIR, "compare_scripts")
+
+
+def addon_parent():
+    """The folder holding the airmass_blender package (the CLI's --addon)."""
+    return os.path.dirname(PACKAGE_DIR)
+
+
+_availability = {}
+
+
+def availability():
+    """None when Compare with Native can run, else why not (cached per CLI file and mtime)."""
+    exe = cli_path()
+    try:
+        key = (exe, os.stat(exe).st_mtime_ns)
+    except OSError:
+        return "the Airmass CLI is not at '%s' (the add-on zip bundles it as bin/airmass; reinstall the add-on " \
+               "or set %s)" % (exe, CLI_ENV)
+    if key in _availability:
+        return _availability[key]
+    reason = None
+    if not os.access(exe, os.X_OK):
+        # zipfile.extractall (Blender's add-on installer) drops the executable bit.
+        try:
+            os.chmod(exe, os.stat(exe).st_mode | 0o755)
+        except OSError as e:
+            reason = "the Airmass CLI '%s' is not executable and cannot be made so: %s" % (exe, e)
+    for script in ("blender_render.py", "report.py"):
+        if reason is None and not os.path.isfile(os.path.join(scripts_dir(), script)):
+            reason = "the comparison script %s is missing from '%s' (reinstall the add-on)" % (script, scripts_dir())
+    if reason is None:
+        try:
+            r = subprocess.run([exe, "compare", "--help"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               timeout=30, check=False)
+            if r.returncode != 0:
+                reason = "the Airmass CLI '%s' does not run (exit status %d): %s" % (
+                    exe, r.returncode, r.stderr.decode("utf-8", "replace").strip()[-400:])
+        except (OSError, subprocess.SubprocessError) as e:
+            reason = "the Airmass CLI '%s' does not run: %s" % (exe, e)
+    _availability[key] = reason
+    return reason
 
 
 def available():
-    return False
+    return availability() is None
 
 
-def run(context, *, camera=None, samples=16, output_folder=None, progress=None):
-    raise NotAvailable("Compare with Native is not available yet in this version of the add-on "
-                       "(it arrives with the render-vs-native comparison, issue 6)")
+# ---- the scene as TOML -----------------------------------------------------------------------
+
+def _toml_value(v, where):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise SettingsError("%s = %r is not finite" % (where, v))
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # a TOML basic string
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x, where) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join("%s = %s" % _toml_pair(k, x, where + "." + k) for k, x in v.items()) + " }"
+    raise SettingsError("%s: cannot write %r as TOML" % (where, v))
+
+
+def _toml_pair(key, value, where):
+    """The JSON form is SI (`radius_m`, `scale_height_m`); scene files write lengths in km."""
+    if key.endswith("_m") and not key.endswith("_per_m"):
+        scale = (lambda x: x / KM)
+        value = [scale(float(x)) for x in value] if isinstance(value, list) else scale(float(value))
+        key = key[:-2] + "_km"
+    return key, _toml_value(value, where)
+
+
+def scene_toml(scene_json, camera):
+    """A self-contained scene file (docs/scene.md) for the validated scene and `camera`."""
+    lines = ["# Written by the Airmass Blender add-on (Compare with Native)",
+             "name = %s" % _toml_value(str(scene_json.get("name") or "scene"), "name")]
+    for table in ("planet", "sun", "observer", "spectrum"):
+        body = dict(scene_json.get(table) or {})
+        if table == "spectrum" and body.get("basis") != "spectral":
+            body.pop("wavelengths_nm", None)  # implied by the basis; not allowed with it
+        lines.append("")
+        lines.append("[%s]" % table)
+        for k, v in body.items():
+            lines.append("%s = %s" % _toml_pair(k, v, "%s.%s" % (table, k)))
+    lines += ["", "[camera]"]
+    for k in ("position_m", "direction", "up", "fov_deg", "width", "height", "max_distance_km"):
+        lines.append("%s = %s" % (k, _toml_value(camera[k], "camera." + k)))
+    for i, c in enumerate(scene_json.get("constituents") or []):
+        lines += ["", "[[constituent]]"]
+        for k, v in c.items():
+            lines.append("%s = %s" % _toml_pair(k, v, "constituent[%d].%s" % (i, k)))
+    return "\n".join(lines) + "\n"
+
+
+def _same(a, b, path=""):
+    """Where two JSON values differ beyond rounding (km ↔ m conversions), or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in set(a) | set(b):
+            if k not in a or k not in b:
+                return "%s.%s" % (path, k)
+            d = _same(a[k], b[k], "%s.%s" % (path, k))
+            if d:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return path
+        for i, (x, y) in enumerate(zip(a, b)):
+            d = _same(x, y, "%s[%d]" % (path, i))
+            if d:
+                return d
+        return None
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return None if abs(a - b) <= 1e-12 * max(abs(a), abs(b)) else path
+    return None if a == b else path
+
+
+def checked_scene_toml(spec, camera):
+    """scene_toml of the settings' scene, read back by the library: the CLI gets exactly the
+    scene the add-on's other operators use (or this raises)."""
+    original = native.validate_scene(spec)
+    text = scene_toml(original, camera)
+    back = native.validate_scene(native.Spec(toml=text, source_name="compare-scene.toml"))
+    for j in (original, back):
+        j.pop("camera", None)
+    where = _same(original, back)
+    if where:
+        raise RuntimeError("internal error: the scene written for the comparison differs from the add-on's at %s"
+                           % where)
+    return text
+
+
+# ---- the camera ------------------------------------------------------------------------------
+
+def camera_for_cli(scene, cam, unit_m, width, max_distance_km):
+    """The CLI's [camera] for a Blender camera object (see the module docstring)."""
+    if cam is None or cam.type != "CAMERA":
+        raise SettingsError("Compare with Native needs an active camera in the scene")
+    data = cam.data
+    if data.type != "PERSP":
+        raise SettingsError("Compare with Native needs a perspective camera ('%s' is %s)"
+                            % (cam.name, data.type.lower()))
+    if abs(data.shift_x) > 1e-9 or abs(data.shift_y) > 1e-9:
+        raise SettingsError("Compare with Native: camera '%s' has a lens shift (%g, %g); the native camera has "
+                            "none: set Shift X and Y to 0" % (cam.name, data.shift_x, data.shift_y))
+    r = scene.render
+    if abs(r.pixel_aspect_x - r.pixel_aspect_y) > 1e-9:
+        raise SettingsError("Compare with Native needs square pixels (Pixel Aspect %g:%g)"
+                            % (r.pixel_aspect_x, r.pixel_aspect_y))
+    res_x = max(1, r.resolution_x)
+    res_y = max(1, r.resolution_y)
+    height = max(1, int(round(width * res_y / res_x)))
+    m = cam.matrix_world
+    rot = m.to_3x3().normalized()
+    direction = (rot @ Vector((0.0, 0.0, -1.0))).normalized()
+    up = (rot @ Vector((0.0, 1.0, 0.0))).normalized()
+    frame = data.view_frame(scene=scene)  # corners at depth −z; the camera's sensor fit included
+    depth = abs(frame[0].z)
+    half = max(max(abs(v.x) for v in frame), max(abs(v.y) for v in frame))
+    fov_deg = math.degrees(2.0 * math.atan(half / depth))
+    return {"position_m": [float(x) * unit_m for x in m.translation], "direction": [float(x) for x in direction],
+            "up": [float(x) for x in up], "fov_deg": fov_deg, "width": int(width), "height": int(height),
+            "max_distance_km": float(max_distance_km)}
+
+
+# ---- progress from the CLI's output -------------------------------------------------------------
+
+class _Progress:
+    """Turns the CLI's progress lines and the Blender logs into a fraction and a status."""
+
+    def __init__(self, work_dir, paths, native_renders):
+        self.work_dir = work_dir
+        self.weights = {"native": native_renders, "sky": 2 if "sky_texture" in paths else 0,
+                        "vdb": 1 if "vdb_volume" in paths else 0, "report": 2}
+        self.blender_weight = {p: (4 if p == "sky_texture" else 10) for p in paths}
+        self.total = float(sum(self.weights.values()) + sum(self.blender_weight.values()))
+        self.done = 0.0
+        self.current = None  # the Blender path running
+        self.expected = {}
+        self.status = "native renders"
+
+    def line(self, text):
+        m = re.match(r"compare: (.*)$", text.strip())
+        if not m:
+            return
+        msg = m.group(1)
+        if msg.startswith("native "):
+            self.done += 1
+            self.status = msg.split(":")[0]
+        elif msg.startswith("sky texture "):
+            self.done += self.weights["sky"]
+            self.status = "sky texture"
+        elif msg.startswith("vdb:"):
+            self.done += self.weights["vdb"]
+            self.status = "VDB export"
+        elif msg.startswith("blender "):
+            rest = msg[len("blender "):]
+            path = rest.split(" ")[0].rstrip(":")
+            if rest.endswith("..."):
+                self.current = path
+                self.status = "Blender: %s" % path
+            elif path in self.blender_weight:
+                self.done += self.blender_weight[path]
+                self.current = None
+                self.status = "report"
+        elif msg.startswith("wrote "):
+            self.done = self.total
+
+    def _renders_expected(self, path):
+        if path not in self.expected:
+            try:
+                with open(os.path.join(self.work_dir, "job.json")) as f:
+                    job = json.load(f)
+                seeds = int(job["seeds"][path])
+                if path == "sky_texture":
+                    n = seeds
+                else:
+                    scatterers = sum(1 for c in job.get("constituents", []) if max(c["scattering_rgb"]) > 0)
+                    modes = job.get("volume_modes", ["split", "rgb"])
+                    n = seeds * ((3 * scatterers if "split" in modes else 0) + (1 if "rgb" in modes else 0))
+                self.expected[path] = max(1, n)
+            except (OSError, ValueError, KeyError):
+                return None
+        return self.expected[path]
+
+    def fraction(self):
+        done = self.done
+        if self.current is not None:
+            n = self._renders_expected(self.current)
+            try:
+                with open(os.path.join(self.work_dir, "blender_%s.log" % self.current), errors="replace") as f:
+                    k = sum(1 for ln in f if ln.startswith("[airmass-compare] blender_") and ln.rstrip().endswith(" s"))
+            except OSError:
+                k = 0
+            if n:
+                done += self.blender_weight[self.current] * min(0.95, k / n)
+                self.status = "Blender: %s, render %d of %d" % (self.current, min(k + 1, n), n)
+        return max(0.0, min(1.0, done / self.total))
+
+
+# ---- the plan --------------------------------------------------------------------------------------
+
+def _flag_paths(flags):
+    return [p for p in PATHS if p.upper() in flags]
+
+
+def _remove_tree(path):
+    if path and os.path.isdir(path):
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def _pct(x):
+    return "%.3g%%" % (100.0 * x)
+
+
+class ComparePlan(Plan):
+    label = "Compare with Native"
+
+    def __init__(self, context, *, camera=None, width=None, samples=None, seeds=None, paths=None,
+                 volume_modes=None, output_folder=None):
+        scene = context.scene
+        s = scene.airmass
+        reason = availability()
+        if reason:
+            raise NotAvailable("Compare with Native is not available: " + reason)
+        self.settings = s
+        self.width = int(width if width is not None else s.compare_width)
+        self.samples = int(samples if samples is not None else s.compare_samples)
+        self.seeds = int(seeds if seeds is not None else s.compare_seeds)
+        self.paths = list(paths) if paths is not None else _flag_paths(s.compare_paths)
+        self.volume_modes = list(volume_modes) if volume_modes is not None else \
+            [m.lower() for m in ("SPLIT", "RGB") if m in s.compare_volume_modes]
+        if not self.paths:
+            raise SettingsError("Compare with Native: no path chosen (tick Sky Texture, Analytic Volume or VDB Volume)")
+        bad = [p for p in self.paths if p not in PATHS]
+        if bad:
+            raise SettingsError("Compare with Native: unknown path %s (allowed: %s)" % (bad[0], ", ".join(PATHS)))
+        if any(p != "sky_texture" for p in self.paths) and not self.volume_modes:
+            raise SettingsError("Compare with Native: choose a volume render mode (Split and/or RGB)")
+        for name, value, lo, hi in (("Width", self.width, 4, 16384), ("Samples", self.samples, 1, 1 << 20),
+                                    ("Seeds", self.seeds, 2, 1000)):
+            if not lo <= value <= hi:
+                raise SettingsError("Compare with Native: %s = %d must be in [%d, %d]" % (name, value, lo, hi))
+        from .volume import units
+        _, unit_m = units(s)
+        cam_obj = camera if camera is not None else scene.camera
+        self.camera = camera_for_cli(scene, cam_obj, unit_m, self.width, s.view_distance)
+        self.scene_text = checked_scene_toml(make_spec(s), self.camera)
+        if output_folder is not None:
+            folder = os.path.normpath(bpy.path.abspath(output_folder))
+            if not os.path.isdir(folder):
+                try:
+                    os.makedirs(folder, exist_ok=True)
+                except OSError as e:
+                    raise SettingsError("Output Folder '%s' cannot be created: %s" % (folder, e.strerror or e))
+            if not os.access(folder, os.W_OK | os.X_OK):
+                raise SettingsError("Output Folder '%s' is not writable" % folder)
+            self.folder = folder
+        else:
+            self.folder = resolve_output_folder(s)
+        self.name = "%s_compare" % bpy.path.clean_name(scene.name)
+        self.final_dir = os.path.join(self.folder, self.name)
+        if os.path.exists(self.final_dir) and not os.path.isdir(self.final_dir):
+            raise SettingsError("'%s' exists and is not a folder" % self.final_dir)
+        self.blender = bpy.app.binary_path
+        if not self.blender or not os.path.isfile(self.blender):
+            raise SettingsError("Compare with Native: this Blender's executable is unknown (bpy.app.binary_path)")
+        self.voxel_size = s.voxel_size if s.voxel_size > 0 else None
+        self.step_km = s.step_km
+        self.max_dense_mb = s.max_dense_mb
+        self.work_dir = None
+        self.summary = None
+        self.result = None
+        self.status = ""
+        self.partial = False
+
+    def command(self, scene_file):
+        cmd = [cli_path(), "compare", scene_file, "-o", self.work_dir, "--blender", self.blender,
+               "--scripts", scripts_dir(), "--addon", addon_parent(),
+               "--width", str(self.camera["width"]), "--height", str(self.camera["height"]),
+               "--samples", str(self.samples), "--sky-samples", str(self.samples), "--seeds", str(self.seeds),
+               "--paths", ",".join(self.paths), "--volume-modes", ",".join(self.volume_modes or ["split"]),
+               "--step", repr(float(self.step_km)), "--max-dense-mb", repr(float(self.max_dense_mb))]
+        if self.voxel_size is not None:
+            cmd += ["--voxel-size", repr(float(self.voxel_size))]
+        return cmd
+
+    # -- worker thread: no bpy ------------------------------------------------------------------
+    def work(self, progress):
+        self.work_dir = tempfile.mkdtemp(prefix=".%s.tmp-" % self.name, dir=self.folder)
+        scene_file = os.path.join(self.work_dir, "scene.toml")
+        with open(scene_file, "w", encoding="utf-8") as f:
+            f.write(self.scene_text)
+        natives = 1 + 2 + ("sky_texture" in self.paths) + ("vdb_volume" in self.paths)
+        tracker = _Progress(self.work_dir, self.paths, natives)
+        lines = queue.Queue()
+        output = []
+        proc = subprocess.Popen(self.command(scene_file), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, start_new_session=True, cwd=self.work_dir)
+
+        def read():
+            for raw in proc.stdout:
+                lines.put(raw.decode("utf-8", "replace"))
+            lines.put(None)
+
+        reader = threading.Thread(target=read, name="airmass-compare-output", daemon=True)
+        reader.start()
+        cancelled = False
+        try:
+            eof = False
+            while not eof:
+                try:
+                    text = lines.get(timeout=0.2)
+                    if text is None:
+                        eof = True
+                    else:
+                        output.append(text)
+                        tracker.line(text)
+                except queue.Empty:
+                    pass
+                fraction = tracker.fraction()
+                self.status = tracker.status
+                progress.fraction = fraction
+                wants_stop = progress.cancel_requested
+                if progress.callback is not None:
+                    try:
+                        wants_stop = bool(progress.callback(fraction)) or wants_stop
+                    except Exception:  # noqa: BLE001 — a failing callback stops the work
+                        wants_stop = True
+                if wants_stop and not cancelled:
+                    cancelled = True
+                    self._stop(proc)
+            rc = proc.wait()
+        finally:
+            if proc.poll() is None:
+                self._stop(proc)
+            reader.join(timeout=5)
+        if cancelled:
+            raise native.NativeError(native.CANCELLED, "Compare with Native cancelled")
+        if rc != 0:
+            raise CompareError("airmass compare failed (exit status %d): %s" % (rc, _last_error(output)))
+        return self._read_summary(output)
+
+    @staticmethod
+    def _stop(proc):
+        """SIGTERM: the CLI's interrupt guard cancels, kills its Blender and exits; SIGKILL if it
+        does not within CANCEL_GRACE_S."""
+        try:
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(timeout=CANCEL_GRACE_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        except OSError:
+            pass
+
+    def _read_summary(self, output):
+        path = os.path.join(self.work_dir, "summary.json")
+        try:
+            with open(path) as f:
+                summary = json.load(f)
+        except (OSError, ValueError) as e:
+            raise CompareError("airmass compare wrote no readable summary.json (%s): %s" % (e, _last_error(output)))
+        entries = summary.get("paths", {})
+        ok = {p: e for p, e in entries.items() if "error" not in e}
+        failed = {p: str(e["error"]).splitlines()[0] for p, e in entries.items() if "error" in e}
+        if not ok:
+            raise CompareError("Compare with Native: every path failed: " +
+                               "; ".join("%s: %s" % kv for kv in failed.items()))
+        for p, e in ok.items():
+            for k in ("mean_rel_err", "p95_rel_err"):
+                if not isinstance(e.get(k), (int, float)) or not math.isfinite(e[k]):
+                    raise CompareError("Compare with Native: %s %s is %r in summary.json" % (p, k, e.get(k)))
+        return summary, ok, failed
+
+    # -- main thread ------------------------------------------------------------------------------
+    def finish(self, context, result):
+        summary, ok, failed = result
+        self._swap_in()
+        images = self._load_images(ok)
+        s = self.settings
+        report = os.path.join(self.final_dir, "report.md")
+        parts = ["%s mean %s p95 %s" % (p, _pct(e["mean_rel_err"]), _pct(e["p95_rel_err"])) for p, e in ok.items()]
+        parts += ["%s FAILED: %s" % kv for kv in failed.items()]
+        self.partial = bool(failed)
+        self.summary = "Compare with Native (%dx%d): %s; report %s" % (
+            self.camera["width"], self.camera["height"], "; ".join(parts), report)
+        s.compare_report = report
+        s.compare_summary = "; ".join(parts)
+        self.result = {"summary": self.summary, "report": report, "folder": self.final_dir,
+                       "summary_json": os.path.join(self.final_dir, "summary.json"), "paths": summary.get("paths", {}),
+                       "images": images}
+
+    def _swap_in(self):
+        """The new folder replaces <output>/<scene>_compare (the old one is moved aside first and
+        removed once the new one is in place)."""
+        old = None
+        if os.path.isdir(self.final_dir):
+            old = tempfile.mkdtemp(prefix=".%s.old-" % self.name, dir=self.folder)
+            os.rmdir(old)
+            os.rename(self.final_dir, old)
+        try:
+            os.rename(self.work_dir, self.final_dir)
+        except OSError:
+            if old is not None:
+                os.rename(old, self.final_dir)
+            raise
+        self.work_dir = None
+        _remove_tree(old)
+
+    def _load_images(self, ok):
+        """{name: image}: each path's side-by-side and error PNGs; an image of the same name is
+        reloaded from the new file instead of duplicated; stale ones (paths not run now) go."""
+        wanted = {}
+        for p in ok:
+            for kind, suffix in (("side_by_side", ""), ("error", " error")):
+                f = os.path.join(self.final_dir, "png", "%s_%s.png" % (p, kind))
+                if os.path.isfile(f):
+                    wanted[IMAGE_PREFIX + p + suffix] = f
+        images = {}
+        for name, f in wanted.items():
+            img = bpy.data.images.get(name)
+            if img is not None and img.get(IMAGE_ROLE) == "compare":
+                img.filepath = f
+                img.reload()
+            else:
+                img = bpy.data.images.load(f, check_existing=False)
+                img.name = name
+                img[IMAGE_ROLE] = "compare"
+            images[name] = img
+        for img in list(bpy.data.images):
+            if img.get(IMAGE_ROLE) == "compare" and img.name not in wanted and img.users == 0:
+                bpy.data.images.remove(img)
+        return images
+
+    def abort(self):
+        _remove_tree(self.work_dir)
+        self.work_dir = None
+
+
+def _last_error(output):
+    """The CLI's error line ("airmass: ..."), else the last lines it printed."""
+    text = [ln.rstrip() for ln in output if ln.strip()]
+    errors = [ln for ln in text if ln.startswith("airmass: ")]
+    if errors:
+        i = text.index(errors[-1])
+        return "\n".join(text[i:i + 12])[len("airmass: "):]
+    return "\n".join(text[-6:]) or "no output"
+
+
+def run(context, *, camera=None, width=None, samples=None, seeds=None, paths=None, volume_modes=None,
+        output_folder=None, progress=None):
+    """Synchronous Compare with Native (for scripts). `progress(fraction)` returning True
+    cancels. Returns a dict: summary (str), report, folder, summary_json, paths, images."""
+    plan = ComparePlan(context, camera=camera, width=width, samples=samples, seeds=seeds, paths=paths,
+                       volume_modes=volume_modes, output_folder=output_folder)
+    prog = native.Progress(progress)
+    try:
+        result = plan.work(prog)
+        plan.finish(context, result)
+    except BaseException:
+        plan.abort()
+        raise
+    finally:
+        prog.close()
+    return plan.result

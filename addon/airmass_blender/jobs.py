@@ -22,7 +22,16 @@ from . import native
 from .properties import SettingsError
 
 
+class JobError(RuntimeError):
+    """A failure whose message is written for the user (reported without a traceback)."""
+
+
 class Plan:
+    """`status` (optional): a short description of the current step, shown in the status bar
+    while the work runs from the UI."""
+
+    status = ""
+
     def work(self, progress):
         raise NotImplementedError
 
@@ -37,7 +46,7 @@ class Plan:
 
 def describe(exc):
     """A one-line message for self.report."""
-    if isinstance(exc, (native.NativeError, SettingsError)):
+    if isinstance(exc, (native.NativeError, SettingsError, JobError)):
         return str(exc)
     return "%s: %s" % (type(exc).__name__, exc)
 
@@ -77,7 +86,7 @@ class JobOperatorMixin:
             if isinstance(e, native.NativeError) and e.cancelled:
                 self.report({"WARNING"}, "%s cancelled: nothing was changed" % plan.label)
             else:
-                if not isinstance(e, (native.NativeError, SettingsError)):
+                if not isinstance(e, (native.NativeError, SettingsError, JobError)):
                     traceback.print_exc()
                 self.report({"ERROR"}, describe(e))
             return {"CANCELLED"}
@@ -126,6 +135,8 @@ class JobOperatorMixin:
         if event.type != "TIMER":
             return {"RUNNING_MODAL"} if event.type == "ESC" else {"PASS_THROUGH"}
         context.window_manager.progress_update(int(1000 * self._progress.fraction))
+        if self._plan.status:
+            context.workspace.status_text_set("%s: %s… (Esc to cancel)" % (self._plan.label, self._plan.status))
         if self._thread.is_alive():
             return {"RUNNING_MODAL"}
         return self._complete(context)

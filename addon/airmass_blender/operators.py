@@ -73,27 +73,18 @@ class AIRMASS_OT_create_volume(JobOperatorMixin, bpy.types.Operator):
         return volume.AnalyticPlan(context)
 
 
-class AIRMASS_OT_compare(bpy.types.Operator):
-    """Render the active camera in Cycles and natively, and show the difference"""
+class AIRMASS_OT_compare(JobOperatorMixin, bpy.types.Operator):
+    """Render the active camera in Cycles and natively (airmass compare: sky texture, analytic and VDB
+    volume paths) and show the error; the report goes to <Output Folder>/<scene>_compare"""
     bl_idname = "airmass.compare"
     bl_label = "Compare with Native"
 
-    def execute(self, context):
-        wm = context.window_manager
-        wm.progress_begin(0, 1000)
-        try:
-            result = compare.run(context, progress=lambda f: wm.progress_update(int(1000 * f)) and False)
-        except compare.NotAvailable as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        except Exception as e:  # noqa: BLE001
-            self.report({"ERROR"}, describe(e))
-            return {"CANCELLED"}
-        finally:
-            wm.progress_end()
-        summary = (result or {}).get("summary") if isinstance(result, dict) else None
-        self.report({"INFO"}, summary or "Comparison done")
-        return {"FINISHED"}
+    def make_plan(self, context):
+        return compare.ComparePlan(context)
+
+    def report_success(self, context, plan):
+        # A path that failed (an export refused, say) is in the report; the others are valid.
+        self.report({"WARNING"} if plan.partial else {"INFO"}, plan.summary)
 
 
 class AIRMASS_OT_refresh_constituents(bpy.types.Operator):

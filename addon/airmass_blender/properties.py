@@ -216,6 +216,39 @@ class AirmassSettings(bpy.types.PropertyGroup):
         name="Kilometre Units", default=True,
         description="Set the scene's unit system to kilometres (1 Blender unit = 1 km), as the volumes are built")
 
+    # -- Compare with Native (airmass compare, docs/compare.md)
+    compare_width: IntProperty(
+        name="Width", default=160, min=4, max=16384, soft_min=16, soft_max=1920,
+        description="Width of the comparison images in pixels; the height keeps the render resolution's aspect "
+                    "(small is fast: every path renders in Cycles several times)")
+    compare_samples: IntProperty(
+        name="Samples", default=16, min=1, max=1 << 20, soft_max=1024,
+        description="Cycles samples per render and seed (every path)")
+    compare_seeds: IntProperty(
+        name="Seeds", default=2, min=2, max=1000, soft_max=16,
+        description="Independent Blender renders per volume path; their spread measures the noise (at least 2)")
+    compare_paths: EnumProperty(
+        name="Paths", options={"ENUM_FLAG"},
+        default={"SKY_TEXTURE", "ANALYTIC_VOLUME", "VDB_VOLUME"},
+        items=[("SKY_TEXTURE", "Sky Texture", "The sky EXR as World, against the spectral native image (pixel means)"),
+               ("ANALYTIC_VOLUME", "Analytic Volume",
+                "The node-tree shell volume lit by a Sun lamp, against the renderer-matched native image"),
+               ("VDB_VOLUME", "VDB Volume",
+                "The VDB of the box the camera sees (View Distance), against the renderer-matched native image")],
+        description="Which ways of bringing the atmosphere into Blender are rendered and compared")
+    compare_volume_modes: EnumProperty(
+        name="Volume Renders", options={"ENUM_FLAG"}, default={"SPLIT", "RGB"},
+        items=[("SPLIT", "Split", "One grey render per colour channel and scattering constituent, summed: "
+                                  "unbiased in Cycles 3.4 (docs/compare.md)"),
+               ("RGB", "RGB", "One chromatic render, as users render the volume: shows Cycles 3.4's colour bias")],
+        description="How the volume paths are rendered")
+    compare_report: StringProperty(
+        name="Report", subtype="FILE_PATH", default="",
+        description="report.md of the last comparison (written by Compare with Native)")
+    compare_summary: StringProperty(
+        name="Last Comparison", default="",
+        description="Per-path mean and 95th-percentile relative errors of the last comparison")
+
     # -- output
     output_folder: StringProperty(
         name="Output Folder", subtype="DIR_PATH", default="//airmass/",

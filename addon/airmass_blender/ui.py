@@ -168,9 +168,40 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         row.scale_y = 1.3
         row.operator("airmass.create_volume", text="Analytic Volume", icon="MESH_UVSPHERE").mode = "ANALYTIC"
         row.operator("airmass.create_volume", text="VDB Volume", icon="VOLUME_DATA").mode = "VDB"
+
+
+class AIRMASS_PT_world_compare(AirmassWorldPanel, bpy.types.Panel):
+    bl_label = "Compare with Native"
+    bl_parent_id = "AIRMASS_PT_world"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        s = context.scene.airmass
+        reason = compare.availability()
+        if reason:
+            box = layout.box()
+            box.alert = True
+            for line in _wrap(reason, 60):
+                box.label(text=line)
+        layout.prop(s, "compare_width")
+        layout.prop(s, "compare_samples")
+        layout.prop(s, "compare_seeds")
+        col = layout.column(heading="Paths", align=True)
+        col.prop(s, "compare_paths")
+        layout.prop(s, "compare_volume_modes")
         row = layout.row()
-        row.enabled = compare.available()
+        row.scale_y = 1.3
+        row.enabled = reason is None
         row.operator("airmass.compare", icon="IMAGE_REFERENCE")
+        if s.compare_summary:
+            box = layout.box()
+            col = box.column(align=True)
+            for part in s.compare_summary.split("; "):
+                col.label(text=part)
+            col.prop(s, "compare_report", text="")
 
 
 class AIRMASS_PT_view3d(bpy.types.Panel):
@@ -201,10 +232,13 @@ class AIRMASS_PT_view3d(bpy.types.Panel):
         row = col.row(align=True)
         row.operator("airmass.create_volume", text="Analytic", icon="MESH_UVSPHERE").mode = "ANALYTIC"
         row.operator("airmass.create_volume", text="VDB", icon="VOLUME_DATA").mode = "VDB"
+        sub = col.row(align=True)
+        sub.enabled = compare.available()
+        sub.operator("airmass.compare", icon="IMAGE_REFERENCE")
 
 
 CLASSES = (AIRMASS_PT_world, AIRMASS_PT_world_planet, AIRMASS_PT_world_constituents, AIRMASS_PT_world_quality,
-           AIRMASS_PT_world_volume, AIRMASS_PT_view3d)
+           AIRMASS_PT_world_volume, AIRMASS_PT_world_compare, AIRMASS_PT_view3d)
 
 
 def register():
