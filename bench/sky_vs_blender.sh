@@ -9,7 +9,8 @@
 # sky precompute (512×128 upper hemisphere, 21 wavelengths, 32 view steps). Timed inside
 # Blender around bpy.ops.render.render, best of REPEATS, `-t THREADS`.
 #
-# Airmass: `airmass sky --preset blender-nishita` over the same upper hemisphere (512 px
+# Airmass (single scattering, --no-multiple, like Blender's Nishita; then the default sky
+# with multiple scattering for its cost): `airmass sky --preset blender-nishita` over the same upper hemisphere (512 px
 # wide, 128 rows above the horizon: --width 512 --height 256 --hemisphere upper), with the
 # default settings and with 32 view samples (Blender's count); and the 2048×1024 full-sphere
 # RGB sky (target ≤ 1 s on 2 cores). Times are the tool's own "s render" figure (scene ready
@@ -89,15 +90,19 @@ flat=$(blender_best)
 sky=$(blender_best --sky)
 baseline=$(python3 -c "print(max($sky - $flat, 1e-6))")
 
-read -r def def_wall < <(airmass_best --preset blender-nishita --width 512 --height 256 --hemisphere upper)
-read -r s32 s32_wall < <(airmass_best --preset blender-nishita --width 512 --height 256 --hemisphere upper --samples 32)
-read -r rgb rgb_wall < <(airmass_best --preset earth --basis rgb --width 2048 --height 1024)
-read -r spec spec_wall < <(airmass_best --preset earth --width 2048 --height 1024)
+# Single scattering like Blender's Nishita (--no-multiple), then the default sky with
+# multiple scattering for its cost.
+read -r def def_wall < <(airmass_best --preset blender-nishita --width 512 --height 256 --hemisphere upper --no-multiple)
+read -r s32 s32_wall < <(airmass_best --preset blender-nishita --width 512 --height 256 --hemisphere upper --samples 32 --no-multiple)
+read -r rgb rgb_wall < <(airmass_best --preset earth --basis rgb --width 2048 --height 1024 --no-multiple)
+read -r spec spec_wall < <(airmass_best --preset earth --width 2048 --height 1024 --no-multiple)
+read -r ms ms_wall < <(airmass_best --preset earth --width 2048 --height 1024)
 
-python3 - "$flat" "$sky" "$baseline" "$def" "$def_wall" "$s32" "$s32_wall" "$rgb" "$rgb_wall" "$spec" "$spec_wall" "$THREADS" <<'EOF'
+python3 - "$flat" "$sky" "$baseline" "$def" "$def_wall" "$s32" "$s32_wall" "$rgb" "$rgb_wall" "$spec" "$spec_wall" "$THREADS" "$ms" "$ms_wall" <<'EOF'
 import sys
 flat, sky, base, d, dw, s32, s32w, rgb, rgbw, spec, specw = map(float, sys.argv[1:12])
 threads = sys.argv[12]
+ms, msw = map(float, sys.argv[13:15])
 print(f"Blender 3.4 render, flat World        {flat:8.3f} s")
 print(f"Blender 3.4 render, Nishita World     {sky:8.3f} s")
 print(f"Blender Nishita precompute (baseline) {base:8.3f} s   (512x128 upper hemisphere, 21 wavelengths, 32 steps)")
@@ -108,6 +113,7 @@ print(f"| blender-nishita 512x128 upper, defaults | {d:.4f} | {d / base:.2f} | {
 print(f"| blender-nishita 512x128 upper, 32 samples | {s32:.4f} | {s32 / base:.2f} | {s32w:.3f} |")
 print(f"| earth 2048x1024 full sphere, RGB basis | {rgb:.4f} | {rgb / base:.2f} | {rgbw:.3f} |")
 print(f"| earth 2048x1024 full sphere, spectral-48 | {spec:.4f} | {spec / base:.2f} | {specw:.3f} |")
+print(f"| earth 2048x1024 full sphere, spectral-48, multiple scattering (the default) | {ms:.4f} | {ms / base:.2f} | {msw:.3f} |")
 print()
 print(f"2048x1024 full-sphere RGB <= 1 s on {threads} threads: {'yes' if rgb <= 1.0 else 'NO'} ({rgb:.3f} s)")
 EOF

@@ -66,6 +66,10 @@ SkySettings small(int w = 64, int h = 32) {
     s.width = w;
     s.height = h;
     s.view_samples = 8;
+    // The checks here compare against single-scattering references (the evaluator, the
+    // transmittance, per-pixel vs grid, Blender's conventions); multiple scattering in the
+    // sky is tested in test_ms_wiring.cpp.
+    s.multiple_scattering = false;
     return s;
 }
 

@@ -14,7 +14,7 @@ import json
 import os
 import threading
 
-ABI_VERSION = 1
+ABI_VERSION = 2
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 LIBRARY_NAME = "libairmass_c.so"
 
@@ -109,6 +109,7 @@ class SkyOptions(ctypes.Structure):
         ("upper_only", ctypes.c_int32),
         ("threads", ctypes.c_int32),
         ("grid", ctypes.c_int32),
+        ("multiple_scattering", ctypes.c_int32),
     ]
 
 
@@ -420,7 +421,7 @@ def validate_scene(spec):
 
 
 def write_sky_exr(spec, path, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True,
-                  upper_only=False, threads=0, grid=None, progress=None):
+                  upper_only=False, threads=0, grid=None, multiple_scattering=True, progress=None):
     lib = library()
     c_spec, keep = spec._to_c(lib)
     opts = SkyOptions()
@@ -436,6 +437,7 @@ def write_sky_exr(spec, path, width=1024, height=0, view_samples=None, chapman=N
     opts.threads = int(threads)
     if grid is not None:
         opts.grid = int(grid)
+    opts.multiple_scattering = 1 if multiple_scattering else 0
     buf = _message_buffer()
     job_ptr, fn = None, None
     if progress is not None:

@@ -177,6 +177,11 @@ class AirmassSettings(bpy.types.PropertyGroup):
     sky_grid: IntProperty(
         name="Sky Grid", default=-1, min=-1, max=16384,
         description="Interpolation grid of the sky (-1 automatic, 0 evaluate every pixel)")
+    multiple_scattering: BoolProperty(
+        name="Multiple Scattering", default=True,
+        description="Add light scattered more than once (tables precomputed once per sky, about 1 s). Off: single "
+                    "scattering only, as Blender's own Nishita sky; twilight and the Earth's shadow then come out "
+                    "too dark")
     sun_disc: BoolProperty(
         name="Sun Disc", default=True,
         description="Put the solar disc into the sky texture. Turn off when a Sun lamp gives the direct sunlight, "

@@ -139,6 +139,7 @@ class AIRMASS_PT_world_quality(AirmassWorldPanel, bpy.types.Panel):
         layout.prop(s, "sky_width")
         layout.prop(s, "view_samples")
         layout.prop(s, "sky_grid")
+        layout.prop(s, "multiple_scattering")
         layout.prop(s, "sun_disc")
         layout.prop(s, "sky_strength")
 

@@ -97,13 +97,14 @@ class SkyPlan(Plan):
         self.chapman = s.chapman
         self.sun_disc = s.sun_disc
         self.grid = s.sky_grid
+        self.multiple_scattering = s.multiple_scattering
         self.strength = s.sky_strength
         self.summary = None
 
     def work(self, progress):
         native.write_sky_exr(self.spec, self.path, width=self.width, height=max(2, self.width // 2),
                              view_samples=self.samples, chapman=self.chapman, sun_disc=self.sun_disc,
-                             grid=self.grid, progress=progress)
+                             grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress)
         return self.path
 
     def finish(self, context, path):

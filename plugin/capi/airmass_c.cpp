@@ -421,6 +421,7 @@ void airmass_sky_options_init(airmass_sky_options* options) {
     options->upper_only = d.region == airmass::SkyRegion::upper ? 1 : 0;
     options->threads = d.threads;
     options->grid = d.grid;
+    options->multiple_scattering = d.multiple_scattering ? 1 : 0;
 }
 
 int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_options* options, const char* path,
@@ -438,6 +439,7 @@ int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_
         settings.region = options->upper_only ? airmass::SkyRegion::upper : airmass::SkyRegion::full;
         settings.threads = options->threads;
         settings.grid = options->grid;
+        settings.multiple_scattering = options->multiple_scattering != 0;
         airmass::validate(settings);
         // Fail on an unwritable destination before the render, not after it.
         airmass::check_exr_destination(path);

@@ -1,18 +1,28 @@
-// `airmass eval`: single-scattering radiance and transmittance along view rays.
+// `airmass eval`: radiance (single + multiple scattering) and transmittance along view rays.
 //
 //   airmass eval (--preset NAME | SCENE.toml) [--wavelengths 680,550,440]
 //       [--solar-irradiance W_M2_NM] [--samples N] [--chapman METHOD] [--sun-disc]
 //       [--no-ground] [--reference] [--threads N]
+//       [--no-multiple] [--ms-mode orders|isotropic_lut] [--ms-orders K] [--ms-samples N] [--ms-columns]
 //   in:  altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg   (stdin; header allowed)
 //   out: altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg,wavelength_nm,
 //        transmittance,radiance_rayleigh,radiance_mie,radiance    (one row per wavelength)
+//        [,multiple_rayleigh,multiple_mie,multiple]              (with --ms-columns)
+//
+// radiance = radiance_rayleigh + radiance_mie (single-scattering in-scatter) + the directly
+// lit ground + the sun disc + multiple (multiple_scattering.hpp: in-scatter of the
+// multiply-scattered light over the whole view segment, plus the sky-lit ground), the last
+// unless --no-multiple. The tables are precomputed once per invocation at the requested
+// wavelengths. The column set is the same with and without multiple scattering, so
+// existing readers keep working; --ms-columns appends the multiple-scattering parts.
 //
 // The observer is at altitude_m above the surface; the view direction has zenith angle
 // view_zenith_deg and the sun zenith angle sun_zenith_deg, azimuth_deg apart. transmittance
 // is along the view ray to space or to the ground; radiances are W m⁻² sr⁻¹ nm⁻¹ for the
 // scene's top-of-atmosphere solar spectrum, or for --solar-irradiance if given (1 gives
 // radiance per unit irradiance). Equations and accuracy: docs/evaluation.md.
-// --reference evaluates by brute-force nested quadrature instead (slow; for checks).
+// --reference evaluates the single scattering by brute-force nested quadrature instead (slow;
+// for checks); the multiple scattering, if on, is the tables' as always.
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -27,6 +37,7 @@
 
 #include "airmass/atmosphere.hpp"
 #include "airmass/geometry.hpp"
+#include "airmass/multiple_scattering.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "commands.hpp"
@@ -46,6 +57,11 @@ struct EvalOptions {
     bool no_ground = false;
     bool reference = false;
     int threads = 0;
+    bool no_multiple = false;
+    std::string ms_mode = std::string(ms_mode_name(MsSettings{}.mode));
+    int ms_orders = MsSettings{}.max_order;
+    int ms_samples = 32;  // as RenderSettings::multiple_samples and SkySettings::multiple_samples
+    bool ms_columns = false;
 };
 
 std::vector<double> parse_wavelength_list(const std::string& spec) {
@@ -85,8 +101,8 @@ void check_row(const NumericRow& r) {
 void add_eval_command(CLI::App& app) {
     auto opt = std::make_shared<EvalOptions>();
     auto* cmd = app.add_subcommand(
-        "eval", "Single-scattering transmittance and radiance for altitude_m,view_zenith_deg,sun_zenith_deg,"
-                "azimuth_deg rows read from stdin");
+        "eval", "Transmittance and radiance (single + multiple scattering) for altitude_m,view_zenith_deg,"
+                "sun_zenith_deg,azimuth_deg rows read from stdin");
     cmd->add_option("scene", opt->scene_path, "Scene file (.toml)");
     cmd->add_option("--preset", opt->preset, "Built-in scene by name (see docs/scene.md)");
     cmd->add_option("--wavelengths", opt->wavelengths, "Comma-separated wavelengths in nm")->capture_default_str();
@@ -99,6 +115,17 @@ void add_eval_command(CLI::App& app) {
     cmd->add_flag("--no-ground", opt->no_ground, "Do not add the sunlit ground's radiance");
     cmd->add_flag("--reference", opt->reference, "Brute-force nested quadrature instead (slow)");
     cmd->add_option("--threads", opt->threads, "Worker threads (0: all cores)")->capture_default_str();
+    cmd->add_flag("--no-multiple", opt->no_multiple, "Single scattering only (no multiple-scattering tables)");
+    cmd->add_option("--ms-mode", opt->ms_mode, "Multiple-scattering tables: orders or isotropic_lut")
+        ->check(CLI::IsMember({"orders", "isotropic_lut"}))
+        ->capture_default_str();
+    cmd->add_option("--ms-orders", opt->ms_orders,
+                    "Highest scattering order K of the orders tables, in [2, 1000]; 0: until an order adds < 0.1 %")
+        ->capture_default_str();
+    cmd->add_option("--ms-samples", opt->ms_samples, "Multiple-scattering quadrature intervals per view ray, [1, 100000]")
+        ->capture_default_str();
+    cmd->add_flag("--ms-columns", opt->ms_columns,
+                  "Append the columns multiple_rayleigh,multiple_mie,multiple (the multiple-scattering parts)");
     cmd->callback([opt] {
         if (opt->scene_path.empty() == opt->preset.empty())
             throw CliError("eval: give exactly one of SCENE.toml or --preset NAME");
@@ -108,6 +135,11 @@ void add_eval_command(CLI::App& app) {
         if (opt->samples < 1 || opt->samples > 1000000)
             throw CliError("eval: --samples " + std::to_string(opt->samples) + ": must be in [1, 1000000]");
         if (opt->threads < 0) throw CliError("eval: --threads must be >= 0");
+        if (!(opt->ms_orders == 0 || (opt->ms_orders >= 2 && opt->ms_orders <= 1000)))
+            throw CliError("eval: --ms-orders " + std::to_string(opt->ms_orders) +
+                           ": must be 0 (automatic) or in [2, 1000]");
+        if (opt->ms_samples < 1 || opt->ms_samples > 100000)
+            throw CliError("eval: --ms-samples " + std::to_string(opt->ms_samples) + ": must be in [1, 100000]");
         const std::vector<double> wavelengths = parse_wavelength_list(opt->wavelengths);
         EvalSettings settings;
         settings.view_samples = opt->samples;
@@ -126,25 +158,39 @@ void add_eval_command(CLI::App& app) {
         for (const auto& r : rows) check_row(r);
 
         const std::size_t nw = wavelengths.size();
-        std::vector<double> T(rows.size() * nw), R(rows.size() * nw), M(rows.size() * nw), L(rows.size() * nw);
+        const std::size_t n = rows.size() * nw;
+        std::vector<double> T(n), R(n), M(n), L(n), MR(n, 0.0), MM(n, 0.0), MT(n, 0.0);
+        std::optional<tbb::global_control> limit;
+        if (opt->threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, opt->threads);
+        // The tables, once for all rows (they hold light per unit irradiance: independent of
+        // --solar-irradiance, which multiple_scattering_radiance applies per ray).
+        std::optional<MultipleScattering> ms;
+        if (!opt->no_multiple && !rows.empty()) {
+            MsSettings m;
+            m.mode = opt->ms_mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
+            m.max_order = opt->ms_orders;
+            m.threads = opt->threads;
+            ms = precompute_multiple_scattering(atm, m);
+        }
         const auto evaluate = [&](std::size_t k) {
             const auto& v = rows[k].values;
             const ViewRay ray{v[0], direction_from_zenith_azimuth_deg<double>(v[1], 0.0),
                               direction_from_zenith_azimuth_deg<double>(v[2], v[3])};
-            const RadianceOut out{std::span(T).subspan(k * nw, nw), std::span(R).subspan(k * nw, nw),
-                                  std::span(M).subspan(k * nw, nw), std::span(L).subspan(k * nw, nw)};
+            const auto part = [&](std::vector<double>& x) { return std::span(x).subspan(k * nw, nw); };
+            const RadianceOut out{part(T), part(R), part(M), part(L)};
             if (opt->reference) single_scattering_reference(scene, atm, ray, out);
             else single_scattering(atm, ray, out);
+            if (ms) {
+                multiple_scattering_radiance(atm, *ms, ray, {part(MR), part(MM), part(MT)}, opt->ms_samples);
+                for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += MT[k * nw + w];
+            }
         };
-        {
-            std::optional<tbb::global_control> limit;
-            if (opt->threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, opt->threads);
-            tbb::parallel_for(std::size_t(0), rows.size(), evaluate);
-        }
+        tbb::parallel_for(std::size_t(0), rows.size(), evaluate);
 
         std::string out =
             "altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg,wavelength_nm,transmittance,radiance_rayleigh,"
-            "radiance_mie,radiance\n";
+            "radiance_mie,radiance";
+        out += opt->ms_columns ? ",multiple_rayleigh,multiple_mie,multiple\n" : "\n";
         for (std::size_t k = 0; k < rows.size(); ++k) {
             const auto& v = rows[k].values;
             const std::string geometry =
@@ -152,7 +198,10 @@ void add_eval_command(CLI::App& app) {
             for (std::size_t w = 0; w < nw; ++w) {
                 const std::size_t i = k * nw + w;
                 out += geometry + format_g17(wavelengths[w]) + "," + format_g17(T[i]) + "," + format_g17(R[i]) + "," +
-                       format_g17(M[i]) + "," + format_g17(L[i]) + "\n";
+                       format_g17(M[i]) + "," + format_g17(L[i]);
+                if (opt->ms_columns)
+                    out += "," + format_g17(MR[i]) + "," + format_g17(MM[i]) + "," + format_g17(MT[i]);
+                out += "\n";
             }
         }
         std::fwrite(out.data(), 1, out.size(), stdout);

@@ -1,9 +1,10 @@
-// `airmass sky`: render a scene's single-scattering sky to a 32-bit float EXR in Blender's
-// equirectangular convention (docs/sky.md).
+// `airmass sky`: render a scene's sky (single scattering + multiple scattering) to a 32-bit
+// float EXR in Blender's equirectangular convention (docs/sky.md).
 //
 //   airmass sky (--preset NAME | SCENE.toml) -o sky.exr [--width W --height H --samples N
 //       --chapman METHOD --sun-elevation DEG --sun-rotation DEG --altitude M --no-sun-disc
-//       --basis rgb|spectral --wavelengths SPEC --hemisphere full|upper --threads N --quiet]
+//       --basis rgb|spectral --wavelengths SPEC --hemisphere full|upper --threads N --quiet
+//       --no-multiple --ms-mode orders|isotropic_lut --ms-orders K --ms-samples N]
 //
 // The output is written atomically; Ctrl-C stops the render and leaves no file.
 #include <chrono>
@@ -17,6 +18,7 @@
 
 #include "airmass/chapman.hpp"
 #include "airmass/image_io.hpp"
+#include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
@@ -41,6 +43,10 @@ struct SkyOptions {
     int threads = 0;
     int grid = -1;
     bool quiet = false;
+    bool no_multiple = false;
+    std::string ms_mode = std::string(ms_mode_name(MsSettings{}.mode));
+    int ms_orders = MsSettings{}.max_order;
+    int ms_samples = SkySettings{}.multiple_samples;
 };
 
 double parse_number(const std::string& text, const std::string& what) {
@@ -132,7 +138,8 @@ void apply_sky_overrides(Scene& scene, const std::optional<double>& sun_elevatio
 
 void add_sky_command(CLI::App& app) {
     auto* cmd = app.add_subcommand(
-        "sky", "Render the single-scattering sky to a 32-bit float EXR (Blender equirectangular, Nishita units)");
+        "sky", "Render the sky (single + multiple scattering) to a 32-bit float EXR (Blender equirectangular, "
+               "Nishita units)");
     auto o = std::make_shared<SkyOptions>();
     auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
     auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name (see `airmass sky --list-presets`)");
@@ -161,6 +168,15 @@ void add_sky_command(CLI::App& app) {
                     "Sky grid: azimuth intervals over 0-180 deg, pixels interpolated (0: every pixel, -1: auto)")
         ->capture_default_str();
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
+    cmd->add_flag("--no-multiple", o->no_multiple, "Single scattering only (no multiple-scattering tables)");
+    cmd->add_option("--ms-mode", o->ms_mode, "Multiple-scattering tables: orders or isotropic_lut")
+        ->check(CLI::IsMember({"orders", "isotropic_lut"}))
+        ->capture_default_str();
+    cmd->add_option("--ms-orders", o->ms_orders,
+                    "Highest scattering order K of the orders tables, in [2, 1000]; 0: until an order adds < 0.1 %")
+        ->capture_default_str();
+    cmd->add_option("--ms-samples", o->ms_samples, "Multiple-scattering quadrature intervals per view ray, [1, 100000]")
+        ->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
 
     cmd->callback([o, list_presets] {
@@ -185,6 +201,16 @@ void add_sky_command(CLI::App& app) {
         settings.region = o->hemisphere == "upper" ? SkyRegion::upper : SkyRegion::full;
         settings.threads = o->threads;
         settings.grid = o->grid;
+        settings.multiple_scattering = !o->no_multiple;
+        settings.multiple.mode = o->ms_mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
+        if (!(o->ms_orders == 0 || (o->ms_orders >= 2 && o->ms_orders <= 1000)))
+            throw CliError("sky: --ms-orders " + std::to_string(o->ms_orders) +
+                           ": must be 0 (automatic) or in [2, 1000]");
+        settings.multiple.max_order = o->ms_orders;
+        if (o->ms_samples < 1 || o->ms_samples > kSkyMaxMultipleSamples)
+            throw CliError("sky: --ms-samples " + std::to_string(o->ms_samples) + ": must be in [1, " +
+                           std::to_string(kSkyMaxMultipleSamples) + "]");
+        settings.multiple_samples = o->ms_samples;
         try {
             validate(settings);
         } catch (const SkyError& e) {
@@ -215,11 +241,12 @@ void add_sky_command(CLI::App& app) {
         if (cancel.requested()) throw Cancelled("sky: cancelled; no file written");
         write_exr_atomic(o->output, image, sky_metadata(scene, settings));
         if (!o->quiet)
-            std::fprintf(stderr, "sky: wrote %s (%dx%d, %s, %.4f s render)\n", o->output.c_str(), settings.width,
-                         settings.height,
+            std::fprintf(stderr, "sky: wrote %s (%dx%d, %s, %s, %.4f s render)\n", o->output.c_str(),
+                         settings.width, settings.height,
                          scene.basis.kind == SpectralBasis::Kind::rgb_schuler
                              ? "rgb-schuler"
                              : (std::to_string(scene.basis.wavelengths_nm.size()) + " wavelengths").c_str(),
+                         settings.multiple_scattering ? "single + multiple scattering" : "single scattering only",
                          seconds);
     });
 }

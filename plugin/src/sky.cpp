@@ -1,5 +1,6 @@
-// Sky textures: equirectangular mapping, the parallel per-row render, the box-filtered
-// sun disc and the EXR metadata (see sky.hpp for the conventions).
+// Sky textures: equirectangular mapping, the parallel per-row render (single scattering
+// plus the multiple-scattering tables' radiance), the box-filtered sun disc and the EXR
+// metadata (see sky.hpp for the conventions).
 #include "airmass/sky.hpp"
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
 #include "airmass/geometry.hpp"
+#include "airmass/multiple_scattering.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
@@ -108,6 +110,18 @@ void validate(const SkySettings& s) {
     range("threads", s.threads, 0, 4096);
     range("grid", s.grid, -1, kSkyMaxGrid);
     if (s.grid > 0 && s.grid < 4) throw SkyError("grid = " + std::to_string(s.grid) + ": must be -1 (auto), 0 (off) or in [4, " + std::to_string(kSkyMaxGrid) + "]");
+    range("multiple_samples", s.multiple_samples, 1, kSkyMaxMultipleSamples);
+    if (s.multiple_scattering) {
+        try {
+            validate(s.multiple);
+        } catch (const std::invalid_argument& e) {
+            // "multiple scattering: max_order = 1: …" → "multiple.max_order = 1: …" (the field's name here).
+            std::string what = e.what();
+            const std::string prefix = "multiple scattering: ";
+            if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
+            throw SkyError("multiple." + what);
+        }
+    }
     if (double(s.width) * s.height > 1.0e9)
         throw SkyError("width x height = " + std::to_string(s.width) + " x " + std::to_string(s.height) +
                        ": must be at most 1e9 pixels");
@@ -121,7 +135,41 @@ struct SkyContext {
     SpectrumToRgb to_rgb;  // restricted to the wavelengths the atmosphere evaluates
     glm::dvec3 sun;
     double altitude_m;
+    // Multiple scattering: the tables in use (the caller's or `own`), null when off.
+    const MultipleScattering* ms = nullptr;
+    MultipleScattering own;
+    int ms_samples = 32;
 };
+
+// The tables for ctx.atmosphere, with the render's threads, cancel flag and progress
+// (`units` work units of `total` reported through the hooks as the precompute advances).
+MultipleScattering precompute_sky_tables(const Atmosphere& atmosphere, const SkySettings& settings,
+                                         const RenderHooks& hooks, std::size_t units, std::size_t total) {
+    MsSettings m = settings.multiple;
+    if (m.threads == 0) m.threads = settings.threads;
+    if (!m.cancel) m.cancel = hooks.cancel;
+    // Called from the calling thread only (multiple_scattering.hpp), so plain state is enough.
+    std::size_t reported = 0;
+    const auto user = settings.multiple.progress;
+    m.progress = [&, user](double fraction, int order) {
+        if (user) user(fraction, order);
+        const auto now = static_cast<std::size_t>(std::clamp(fraction, 0.0, 1.0) * double(units));
+        if (now > reported && hooks.work_done) hooks.work_done(now - reported, total);
+        reported = std::max(reported, now);
+    };
+    MultipleScattering ms = precompute_multiple_scattering(atmosphere, m);
+    if (units > reported && hooks.work_done) hooks.work_done(units - reported, total);
+    return ms;
+}
+
+// Tables given by a caller must belong to this atmosphere (same wavelengths, constituents).
+void check_tables(const Atmosphere& atm, const MultipleScattering& ms) {
+    if (ms.empty() || ms.wavelength_count != atm.wavelength_count() || ms.slot.size() != atm.constituents.size())
+        throw SkyError("multiple-scattering tables: computed for " + std::to_string(ms.wavelength_count) +
+                       " wavelengths and " + std::to_string(ms.slot.size()) + " constituents, the sky needs " +
+                       std::to_string(atm.wavelength_count()) + " and " + std::to_string(atm.constituents.size()) +
+                       " (use sky_multiple_scattering with the same scene and settings)");
+}
 
 SkyContext prepare(const Scene& scene, const SkySettings& settings) {
     validate(scene);
@@ -145,7 +193,35 @@ SkyContext prepare(const Scene& scene, const SkySettings& settings) {
     ctx.atmosphere = compile_atmosphere(scene, ctx.to_rgb.wavelengths_nm, eval);
     ctx.sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
     ctx.altitude_m = scene.observer.altitude_m;
+    ctx.ms_samples = settings.multiple_samples;
     return ctx;
+}
+
+// Points ctx.ms at the caller's tables or at tables computed now (call once ctx has its
+// final address: ctx.ms may point into ctx.own).
+void attach_tables(SkyContext& ctx, const SkySettings& settings, const RenderHooks& hooks,
+                   const MultipleScattering* tables, std::size_t units, std::size_t total) {
+    if (!settings.multiple_scattering) return;
+    if (tables) {
+        check_tables(ctx.atmosphere, *tables);
+        ctx.ms = tables;
+        return;
+    }
+    ctx.own = precompute_sky_tables(ctx.atmosphere, settings, hooks, units, total);
+    ctx.ms = &ctx.own;
+}
+
+// Adds the multiply-scattered radiance of one view ray (in-scatter over the whole segment
+// and the sky-lit ground, multiple_scattering.hpp) to `radiance`. `scratch` holds 3·nw.
+void add_multiple(const SkyContext& ctx, const Vec3<double>& direction, std::span<double> radiance,
+                  std::span<double> scratch) {
+    if (!ctx.ms) return;
+    const std::size_t nw = radiance.size();
+    const std::span<double> m_rayleigh = scratch.subspan(0, nw), m_mie = scratch.subspan(nw, nw),
+                            m_total = scratch.subspan(2 * nw, nw);
+    multiple_scattering_radiance(ctx.atmosphere, *ctx.ms, ViewRay{ctx.altitude_m, direction, Vec3<double>(ctx.sun)},
+                                 {m_rayleigh, m_mie, m_total}, ctx.ms_samples);
+    for (std::size_t w = 0; w < nw; ++w) radiance[w] += m_total[w];
 }
 
 // Linear Rec.709 from a spectrum, clamped at 0 like Cycles' xyz_to_rgb_clamped: saturated
@@ -321,8 +397,14 @@ int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
     return grid_rays < pixel_rays ? kSkyDefaultGrid : 0;
 }
 
-FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
+MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
     const SkyContext ctx = prepare(scene, settings);
+    return precompute_sky_tables(ctx.atmosphere, settings, hooks, 1000, 1000);
+}
+
+FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks,
+                      const MultipleScattering* tables) {
+    SkyContext ctx = prepare(scene, settings);
     const int W = settings.width, H = settings.height;
     const std::size_t nw = ctx.atmosphere.wavelength_count();
     FloatImage image;
@@ -347,11 +429,17 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         grid.rows_ground = upper && grid.hz.theta_horizon >= kPi / 2 ? 0 : std::max(G / 2, 2) + 1;
     }
     const int grid_rows = grid.rows_sky + grid.rows_ground;
-    const std::size_t total_work = std::size_t(grid_rows) + std::size_t(H);
+    // The table precompute, when it runs here, counts as much as the image (it takes about
+    // as long as a default 2048 × 1024 image's grid; docs/sky.md).
+    const std::size_t image_work = std::size_t(grid_rows) + std::size_t(H);
+    const std::size_t ms_work = settings.multiple_scattering && !tables ? image_work : 0;
+    const std::size_t total_work = ms_work + image_work;
     auto report = [&](std::size_t n) {
         if (hooks.work_done) hooks.work_done(n, total_work);
     };
     auto cancelled = [&] { return hooks.cancel && hooks.cancel->requested(); };
+
+    attach_tables(ctx, settings, hooks, tables, ms_work, total_work);
 
     const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
     tbb::task_arena arena(threads);
@@ -359,10 +447,11 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     // Scratch per thread for one batch of rays.
     struct Scratch {
         std::vector<Vec3<double>> dirs;
-        std::vector<double> transmittance, rayleigh, mie, radiance;
+        std::vector<double> transmittance, rayleigh, mie, radiance, multiple;
         void resize(std::size_t n, std::size_t nw) {
             dirs.resize(n);
             for (auto* v : {&transmittance, &rayleigh, &mie, &radiance}) v->resize(n * nw);
+            multiple.resize(3 * nw);
         }
         RadianceOut out(std::size_t n, std::size_t nw) {
             return {{transmittance.data(), n * nw}, {rayleigh.data(), n * nw}, {mie.data(), n * nw},
@@ -370,9 +459,13 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         }
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
+    // Single scattering for a batch of directions, then each ray's multiple scattering.
     auto evaluate = [&](Scratch& s, std::size_t n) {
         single_scattering_batch(ctx.atmosphere, ctx.altitude_m, Vec3<double>(ctx.sun),
                                 std::span<const Vec3<double>>(s.dirs.data(), n), s.out(n, nw));
+        if (ctx.ms)
+            for (std::size_t k = 0; k < n; ++k)
+                add_multiple(ctx, s.dirs[k], std::span<double>(s.radiance.data() + k * nw, nw), s.multiple);
     };
 
     if (G > 0) {
@@ -473,19 +566,21 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
 }
 
 std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
-                                         std::span<const glm::dvec3> directions) {
+                                         std::span<const glm::dvec3> directions, const MultipleScattering* tables) {
     SkyContext ctx = prepare(scene, settings);
     ctx.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
+    attach_tables(ctx, settings, {}, tables, 0, 0);
     const std::size_t nw = ctx.atmosphere.wavelength_count();
     std::vector<glm::dvec3> out(directions.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, directions.size(), 16),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                          std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw);
+                          std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw), multiple(3 * nw);
                           for (std::size_t k = r.begin(); k < r.end(); ++k) {
                               const glm::dvec3 d = glm::normalize(directions[k]);
                               single_scattering(ctx.atmosphere,
                                                 ViewRay{ctx.altitude_m, Vec3<double>(d), Vec3<double>(ctx.sun)},
                                                 RadianceOut{t, ray, mie, radiance});
+                              add_multiple(ctx, Vec3<double>(d), radiance, multiple);
                               float px[3];
                               store_rgb(ctx.to_rgb, radiance, px);
                               out[k] = {px[0], px[1], px[2]};
@@ -508,6 +603,33 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
     j["sun_disc"] = settings.sun_disc;
     j["grid"] = settings.grid;
     j["grid_used"] = effective_sky_grid(scene, settings);
+    j["multiple_scattering"] = settings.multiple_scattering;
+    if (settings.multiple_scattering) {
+        const MsSettings& m = settings.multiple;
+        nlohmann::ordered_json ms;
+        ms["mode"] = std::string(ms_mode_name(m.mode));
+        ms["parameterisation"] = std::string(ms_parameterisation_name(m.parameterisation));
+        // The table as built: azimuth 0 resolved for this atmosphere.
+        int azimuth = m.table.azimuth;
+        if (azimuth == 0) {
+            try {
+                azimuth = ms_automatic_azimuth_nodes(prepare(scene, settings).atmosphere);
+            } catch (const std::exception&) {
+                azimuth = 0;  // an invalid scene: render_sky reports it
+            }
+        }
+        ms["table"] = {{"altitude", m.table.altitude},
+                       {"view_zenith", m.table.view_zenith},
+                       {"sun_zenith", m.table.sun_zenith},
+                       {"azimuth", azimuth}};
+        ms["max_order"] = m.max_order;  // 0: automatic (until an order adds < tolerance)
+        ms["tolerance"] = m.tolerance;
+        ms["max_auto_order"] = m.max_auto_order;
+        ms["geometric_tail"] = m.geometric_tail;
+        ms["ray_samples"] = m.ray_samples;
+        ms["view_ray_samples"] = settings.multiple_samples;
+        j["multiple"] = ms;
+    }
     j["basis"] = scene.basis.kind == SpectralBasis::Kind::rgb_schuler ? "rgb-schuler" : "spectral";
     j["wavelengths_nm"] = basis_wavelengths_nm(scene.basis);
     j["sun_elevation_deg"] = scene.sun.elevation_deg;

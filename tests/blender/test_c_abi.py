@@ -230,6 +230,31 @@ def test_analytic_density_and_vdb():
     assert seen and seen[-1] == 1.0
 
 
+def test_sky_multiple_scattering_switch():
+    """multiple_scattering = 0 gives the single-scattering sky; 1 (the default) adds a positive
+    amount everywhere above the horizon; on the half of the sky away from the sun (the Earth's
+    shadow at twilight) relatively more at sun -6° than at 45°."""
+    import numpy as np
+    import OpenImageIO as oiio
+    tmp = tempfile.mkdtemp()
+    s = native.Spec(preset="earth")
+    gains = {}
+    for elevation in (45.0, -6.0):
+        s.sun_elevation_deg = elevation
+        imgs = {}
+        for ms in (False, True):
+            path = os.path.join(tmp, "sky_%g_%d.exr" % (elevation, ms))
+            native.write_sky_exr(s, path, width=64, view_samples=8, sun_disc=False, multiple_scattering=ms)
+            buf = oiio.ImageBuf(path)
+            # the upper hemisphere, the half of the azimuths centred on -Y (the sun, rotation 0, is at +Y)
+            imgs[ms] = np.asarray(buf.get_pixels(oiio.FLOAT))[:16, 32:, :3]
+            meta = buf.spec().get_string_attribute("airmass:settings").replace(" ", "")
+            assert ('"multiple_scattering":%s' % ("true" if ms else "false")) in meta, meta[:400]
+        assert np.isfinite(imgs[True]).all() and (imgs[True] >= imgs[False] - 1e-6).all()
+        gains[elevation] = imgs[True].sum() / imgs[False].sum()
+    assert gains[45.0] > 1.05 and gains[-6.0] > 1.5 * gains[45.0], gains
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--lib", required=True)
@@ -238,7 +263,7 @@ def main():
     native.reset()
     for fn in (test_version, test_null_and_struct_size, test_scene_errors_name_fields,
                test_sun_transmittance_vs_quadrature, test_unwritable_and_atomic, test_concurrent_calls,
-               test_analytic_density_and_vdb):
+               test_analytic_density_and_vdb, test_sky_multiple_scattering_switch):
         case(fn)
     if FAILURES:
         print("FAILED:", ", ".join(FAILURES))

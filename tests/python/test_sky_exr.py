@@ -56,6 +56,39 @@ def test_exr_is_rgb_float_of_the_requested_size(airmass_bin, tmp_path):
     assert list(tmp_path.iterdir()) == [out]  # no temporary left behind
 
 
+def test_multiple_scattering_is_on_by_default_and_no_multiple_turns_it_off(airmass_bin, tmp_path):
+    """The default sky includes multiple scattering (recorded in the metadata, with its table
+    settings); --no-multiple gives the single-scattering sky, darker everywhere and, on the
+    side away from the sun, far darker at twilight than at noon relative to it (the light
+    multiple scattering carries into the Earth's shadow)."""
+    ratios = {}
+    for elevation in ("45", "-6"):
+        imgs = {}
+        for name, extra in (("ms", []), ("ss", ["--no-multiple"])):
+            out = tmp_path / f"{name}{elevation}.exr"
+            run_sky(airmass_bin, out, "--width", "64", "--basis", "rgb", "--samples", "8",
+                    "--sun-elevation", elevation, "--sun-rotation", "0", "--no-sun-disc", *extra)
+            spec, px = read_exr(out)
+            settings = json.loads(spec.getattribute("airmass:settings"))
+            assert settings["multiple_scattering"] is (name == "ms")
+            if name == "ms":
+                assert settings["multiple"]["mode"] == "orders"
+                assert settings["multiple"]["table"]["azimuth"] > 0  # automatic count resolved
+            else:
+                assert "multiple" not in settings
+            assert np.all(np.isfinite(px)) and px.min() >= 0.0
+            imgs[name] = px
+        sky = slice(0, 16)  # rows above the horizon (of 32)
+        ms, ss = luminance(imgs["ms"][sky]), luminance(imgs["ss"][sky])
+        assert np.all(ms >= ss * (1 - 1e-6)), elevation
+        # Rotation 0 puts the sun toward +Y, a quarter from the left; the right half of the
+        # image (columns 32-63 of 64) looks away from it.
+        away = slice(32, 64)
+        ratios[elevation] = ms[:, away].mean() / ss[:, away].mean()
+    assert ratios["45"] > 1.1, ratios
+    assert ratios["-6"] > 2.0 * ratios["45"], ratios
+
+
 @pytest.mark.parametrize("rotation,elevation", [(0.0, 30.0), (90.0, 30.0), (90.0, 60.0), (200.0, 15.0)])
 def test_sun_lands_where_blender_puts_it(airmass_bin, tmp_path, rotation, elevation):
     """Sky Texture rotation 0° → +Y (a quarter from the left), 90° → +X (the centre);
@@ -114,7 +147,9 @@ def test_unwritable_destination_is_a_clear_error_and_no_file(airmass_bin, tmp_pa
 def test_bad_options_name_the_option(airmass_bin, tmp_path):
     for args, text in [(["--sun-elevation", "95"], "--sun-elevation"), (["--width", "0"], "width"),
                        (["--samples", "0"], "samples"), (["--chapman", "nope"], "--chapman"),
-                       (["--wavelengths", "300:400:10"], "--wavelengths"), (["--basis", "rgb", "--wavelengths", "21"], "--wavelengths")]:
+                       (["--wavelengths", "300:400:10"], "--wavelengths"), (["--basis", "rgb", "--wavelengths", "21"], "--wavelengths"),
+                       (["--ms-orders", "1"], "--ms-orders"), (["--ms-samples", "0"], "--ms-samples"),
+                       (["--ms-mode", "lut"], "--ms-mode")]:
         proc = run_sky(airmass_bin, tmp_path / "sky.exr", *args, check=False)
         assert proc.returncode != 0, args
         assert text in proc.stderr, (args, proc.stderr)
@@ -203,7 +238,8 @@ def test_matches_blenders_own_nishita_sky(airmass_bin, tmp_path, elevation, rota
     ours_exr = tmp_path / "airmass.exr"
     proc = subprocess.run([str(airmass_bin), "sky", "--preset", "blender-nishita", "-o", str(ours_exr), "--quiet",
                            "--width", str(w), "--height", str(h), "--sun-elevation", str(elevation),
-                           "--sun-rotation", str(rotation), "--altitude", "1", "--no-sun-disc"],
+                           "--sun-rotation", str(rotation), "--altitude", "1", "--no-sun-disc",
+                           "--no-multiple"],  # Blender 3.4's Nishita sky is single scattering
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     _, theirs = read_exr(blender_exr)

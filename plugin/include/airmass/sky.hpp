@@ -1,5 +1,6 @@
-// Sky textures: the single-scattering sky seen by an observer, as an equirectangular
-// image in Blender's convention, in the colour units of Blender's Nishita sky texture.
+// Sky textures: the sky seen by an observer (single scattering, plus multiple scattering
+// by default), as an equirectangular image in Blender's convention, in the colour units of
+// Blender's Nishita sky texture.
 //
 // Image convention (Blender/Cycles "Environment Texture", equirectangular; verified in
 // docs/research and /work/shared/notes/renderer-facts.md): Z up, image centre = +X, a
@@ -20,7 +21,10 @@
 // scattering of sunlight, planet shadow included) + the ground (Lambertian, albedo
 // from the scene, lit by the attenuated sun) seen through the view transmittance + the
 // sun disc (E(λ)·T(λ)/Ω_sun, uniform disc, box-filtered into pixels so its total
-// irradiance is right at any resolution). The spectrum goes to linear Rec.709 by the
+// irradiance is right at any resolution), + with SkySettings::multiple_scattering the
+// multiply-scattered light along the view ray and on the ground (multiple_scattering.hpp:
+// `multiple_scattering_radiance`, tables precomputed once per render).
+// The spectrum goes to linear Rec.709 by the
 // scene's basis (color.hpp): XYZ = Σ L(λ)·CMF(λ)·Δλ (CIE 1931 2°, no 683 lm/W), then
 // XYZ(D65) → linear Rec.709 — the units of Blender's Nishita texture, so swapping one
 // for the other keeps the exposure. With the rgb-schuler basis, L at 615/535/445 nm
@@ -39,6 +43,7 @@
 
 #include "airmass/chapman.hpp"
 #include "airmass/image_io.hpp"
+#include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/scene.hpp"
 
@@ -88,6 +93,16 @@ struct SkySettings {
     // intervals, denser toward the horizon. 0: evaluate every pixel. −1 (auto): the grid
     // of kSkyDefaultGrid when it needs fewer rays than the image, else every pixel.
     int grid = -1;
+    // Multiple scattering (multiple_scattering.hpp), on by default: without it the sky is
+    // far too dark at twilight and in the Earth's shadow (docs/multiple_scattering.md). The
+    // tables are precomputed once per render_sky call, at the wavelengths the image uses,
+    // and the radiance is added wherever single scattering is evaluated (grid nodes or
+    // pixels). `multiple.threads` = 0 takes `threads`; `multiple.cancel` unset takes the
+    // render's cancel flag; `multiple.progress`, if set, is called besides the render's
+    // progress hook.
+    bool multiple_scattering = true;
+    MsSettings multiple{};
+    int multiple_samples = 32;  // quadrature intervals per view ray (as RenderSettings)
 };
 
 inline constexpr int kSkyDefaultGrid = 256;
@@ -96,6 +111,7 @@ inline constexpr int kSkyMaxGrid = 16384;
 // Limits checked by validate(SkySettings).
 inline constexpr int kSkyMaxDimension = 65536;
 inline constexpr int kSkyMaxViewSamples = 65536;
+inline constexpr int kSkyMaxMultipleSamples = 100000;
 
 void validate(const SkySettings& settings);  // throws SkyError
 
@@ -111,18 +127,34 @@ struct RenderHooks {
 // The grid intervals a render will use (settings.grid resolved: 0 = every pixel).
 int effective_sky_grid(const Scene& scene, const SkySettings& settings);
 
-// Renders the sky of `scene` (validated here) into a linear Rec.709 RGB image.
-FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {});
+// The multiple-scattering tables render_sky computes for `scene` and `settings` (the
+// atmosphere at the wavelengths the image uses; settings.multiple). They depend on neither
+// the sun nor the observer nor the image size, so callers that render many skies of one
+// scene (animations of the sun, reports, tests) compute them once and pass them below.
+// Progress goes to hooks.work_done in units of 1/1000 of the precompute; cancellable.
+MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings,
+                                           const RenderHooks& hooks = {});
+
+// Renders the sky of `scene` (validated here) into a linear Rec.709 RGB image. With
+// settings.multiple_scattering, `tables` (from sky_multiple_scattering for the same scene
+// and settings) are used if given, else computed here (progress and cancel through `hooks`).
+// Tables of another wavelength count or constituent set are rejected (SkyError).
+FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {},
+                      const MultipleScattering* tables = nullptr);
 
 // Linear Rec.709 radiance of one direction (sun disc as a point-sampled uniform disc);
-// for tests and reports. `direction` need not be unit.
+// for tests and reports. `direction` need not be unit. With multiple scattering on, this
+// form precomputes the tables on every call (about a second at 48 wavelengths): use the
+// batch form, or pass tables.
 glm::dvec3 sky_radiance_rgb(const Scene& scene, const SkySettings& settings, const glm::dvec3& direction);
-// The same for many directions (one atmosphere set-up; parallel).
+// The same for many directions (one atmosphere set-up and one table precompute; parallel).
 std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
-                                         std::span<const glm::dvec3> directions);
+                                         std::span<const glm::dvec3> directions,
+                                         const MultipleScattering* tables = nullptr);
 
 // EXR metadata for a sky: "airmass:scene" (scene_to_json), "airmass:settings" (JSON of
-// the settings and derived quantities: sun direction, wavelengths, units),
+// the settings and derived quantities: sun direction, wavelengths, units, whether multiple
+// scattering is included and its table settings),
 // "airmass:version", "airmass:convention", and "airmass:units".
 ImageMetadata sky_metadata(const Scene& scene, const SkySettings& settings);
 std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings);

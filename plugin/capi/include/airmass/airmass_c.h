@@ -40,7 +40,7 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 1
+#define AIRMASS_C_ABI_VERSION 2  /* 2: airmass_sky_options.multiple_scattering */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -143,6 +143,7 @@ typedef struct airmass_sky_options {
     int32_t threads;        /* 0: all hardware threads                                   */
     int32_t grid;           /* sky grid intervals (sky.hpp SkySettings::grid): -1 automatic,
                                0 every pixel, N > 0 an N-interval grid interpolated per pixel */
+    int32_t multiple_scattering; /* 1 (default): add multiple scattering (docs/multiple_scattering.md) */
 } airmass_sky_options;
 
 AIRMASS_C_API void airmass_sky_options_init(airmass_sky_options* options);
