@@ -1,19 +1,62 @@
 #!/usr/bin/env bash
-# The README's main command: installs what is missing, builds, and runs the main job
-# on the default scene, writing everything into out/ (or $1):
-#   out/chapman/   the Chapman speed-vs-accuracy trade (table + plot)
-# and, as the later stages land, the sky texture, the atmosphere volume, the Blender
-# render and the comparison report (see README "What the main command produces").
+# The README's main command: installs what is missing, builds, and runs the main job on the
+# default scene (examples/compare/ground-noon.toml: the `earth` preset, a camera 2 m above the
+# ground looking at the horizon, the sun at 60°), writing everything into out/ (or $1):
+#
+#   out/main/sky.exr           the sky texture (equirectangular, Blender's World convention)
+#   out/main/atmosphere.vdb    the atmosphere volume of the region the camera sees (km)
+#   out/main/analytic.json     the same densities in closed form (the add-on's node tree)
+#   out/compare/               the camera rendered natively and in Blender (sky texture,
+#                              analytic volume, VDB volume): report.md, PNGs, summary.json
+#   out/gallery/               skies from sunrise to orbit (EXR + PNG)
+#   out/chapman|sky|vdb|ms/    the measured speed-vs-accuracy trades (tables, CSV, plots)
+#
+# Then scripts/update_readme.py copies the tables and images into README.md.
+# Environment: AIRMASS_BUILD_DIR (default build/), COMPARE_WIDTH (default 64 px), COMPARE_SAMPLES (default 32 per seed),
+# AIRMASS_QUICK=1 (smaller trade reports, for a smoke run).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$(realpath -m "${1:-$root/out}")"
 bash "$root/scripts/setup.sh"
 bash "$root/scripts/build.sh"
-airmass="${AIRMASS_BUILD_DIR:-$root/build}/bin/airmass"
-mkdir -p "$out"
+build="${AIRMASS_BUILD_DIR:-$root/build}"
+airmass="$build/bin/airmass"
+py=/usr/bin/python3
+scene="$root/examples/compare/ground-noon.toml"
+quick=()
+[ "${AIRMASS_QUICK:-0}" = 1 ] && quick=(--quick)
+mkdir -p "$out/main"
+SECONDS=0
+stage() { echo; echo "== [$((SECONDS / 60)) min] $*"; }
 
-echo "== Chapman function: speed-vs-accuracy trade -> $out/chapman"
+stage "sky texture of the default scene -> $out/main/sky.exr"
+"$airmass" sky "$scene" -o "$out/main/sky.exr"
+
+stage "atmosphere volume of the region the camera sees -> $out/main/atmosphere.vdb"
+"$airmass" vdb "$scene" -o "$out/main/atmosphere.vdb" --region view --analytic "$out/main/analytic.json"
+
+stage "render vs native in Blender -> $out/compare"
+"$airmass" compare "$scene" -o "$out/compare" --width "${COMPARE_WIDTH:-64}" --samples "${COMPARE_SAMPLES:-32}"
+
+stage "sky gallery -> $out/gallery"
+bash "$root/scripts/gallery.sh" "$out/gallery" "$build" 1024
+
+stage "Chapman function trade -> $out/chapman"
 "$airmass" report chapman --out "$out/chapman" > /dev/null
-/usr/bin/python3 "$root/scripts/plot_chapman.py" "$out/chapman"
+"$py" "$root/scripts/plot_chapman.py" "$out/chapman"
 
-echo "== done: $out"
+stage "sky texture trade -> $out/sky"
+"$airmass" report sky --out "$out/sky" "${quick[@]}"
+"$py" "$root/scripts/plot_sky_trade.py" "$out/sky" --png "$out/sky/sky_pareto.png"
+
+stage "voxel-size trade -> $out/vdb"
+"$airmass" report vdb --out "$out/vdb"
+"$py" "$root/scripts/plot_vdb_trade.py" "$out/vdb"
+
+stage "multiple scattering trade -> $out/ms"
+"$airmass" report ms --out "$out/ms" "${quick[@]}"
+"$py" "$root/scripts/plot_ms_trade.py" "$out/ms/ms_trade.csv" -o "$out/ms/ms_trade.png"
+
+stage "README tables and images"
+"$py" "$root/scripts/update_readme.py" "$out"
+echo "== done in $((SECONDS / 60)) min: $out (open $out/compare/report.md)"

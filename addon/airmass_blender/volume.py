@@ -592,8 +592,10 @@ def camera_spec(context, unit_m, max_distance_m):
     up = rot @ Vector((0.0, 1.0, 0.0))
     frame = cam.data.view_frame(scene=scene)  # corners at depth −z, shift and sensor fit included
     depth = abs(frame[0].z)
-    half_w = max(abs(v.x) for v in frame)
-    fov_deg = math.degrees(2.0 * math.atan(half_w / depth))
+    # The library's fov_deg spans the larger image side (Blender's sensor fit AUTO), so a
+    # portrait camera gives its vertical angle.
+    half = max(max(abs(v.x) for v in frame), max(abs(v.y) for v in frame))
+    fov_deg = math.degrees(2.0 * math.atan(half / depth))
     r = scene.render
     width = max(1, int(r.resolution_x * r.resolution_percentage / 100))
     height = max(1, int(r.resolution_y * r.resolution_percentage / 100))

@@ -341,8 +341,10 @@ void run_compare(const CompareOptions& o) {
         // The sky texture path is rendered with Cycles' Box filter (the pixel's mean): a texture
         // of finite resolution cannot put the horizon's jump where a single ray per pixel finds
         // it, but it integrates to the right pixel mean (docs/compare.md).
+        // Multiple scattering included, as in the sky texture users make (SkySettings' default).
         RenderSettings s = base;
         s.pixel_filter = PixelFilter::box;
+        s.multiple_scattering = true;
         native("native_physical_box", s);
     }
     {
@@ -406,6 +408,7 @@ void run_compare(const CompareOptions& o) {
             ss.view_samples = o.view_samples;
             ss.sun_disc = false;
             ss.grid = -1;  // what `airmass sky` does by default (its error: docs/sky.md)
+            ss.multiple_scattering = true;  // as `airmass sky` by default, and native_physical_box
             ss.threads = o.threads;
             const auto t0 = std::chrono::steady_clock::now();
             FloatImage sky;

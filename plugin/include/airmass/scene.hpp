@@ -93,7 +93,7 @@ struct Camera {
     double position_m[3] = {0.0, 0.0, 2.0};  // scene frame, origin on the surface below the observer
     double direction[3] = {1.0, 0.0, 0.0};   // view direction (need not be unit)
     double up[3] = {0.0, 0.0, 1.0};
-    double fov_deg = 60.0;                   // horizontal field of view (Blender sensor fit AUTO)
+    double fov_deg = 60.0;                   // along the larger image side (Blender sensor fit AUTO)
     double max_distance_m = 200e3;
     int width = 640, height = 360;
 };
