@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "test_scenes.hpp"
 #include "airmass/optical_depth.hpp"
 
 namespace airmass {
@@ -30,22 +31,8 @@ double zenith_for_periapsis(double h0, double hp) {
     return 180.0 - std::asin((kR + hp) / (kR + h0)) * 180.0 / M_PI;
 }
 
-DensityProfile exponential(double H, double h_ref = 0.0) {
-    DensityProfile p;
-    p.kind = DensityProfile::Kind::exponential;
-    p.scale_height_m = H;
-    p.reference_altitude_m = h_ref;
-    return p;
-}
-
-DensityProfile tent(double b, double peak, double t) {
-    DensityProfile p;
-    p.kind = DensityProfile::Kind::tent;
-    p.bottom_m = b;
-    p.peak_m = peak;
-    p.top_m = t;
-    return p;
-}
+using test::exponential_profile;
+using test::tent_profile;
 
 struct Segment {
     const char* what;
@@ -86,7 +73,7 @@ TEST(OpticalDepth, ExponentialSegmentsMatchQuadrature) {
             const double got = exponential_segment_mass(ChapmanMethod::exact, seg.ray, H, 0.0, seg.t0, seg.t1);
             // no top: integrate to where the density is e^-50 of the origin's
             const double top = seg.ray.altitude_m + 50.0 * H;
-            const double ref = profile_segment_mass_reference(exponential(H), seg.ray, top, seg.t0, seg.t1, 1e-13);
+            const double ref = profile_segment_mass_reference(exponential_profile(H), seg.ray, top, seg.t0, seg.t1, 1e-13);
             ASSERT_TRUE(std::isfinite(got)) << seg.what << " H=" << H;
             if (ref < 1e-290) {  // e.g. H = 10 m at 20 km: both underflow
                 EXPECT_LT(got, 1e-280) << seg.what << " H=" << H;
@@ -148,8 +135,8 @@ TEST(OpticalDepth, IntegralOfRadiusClosedForm) {
 // Piecewise-linear profiles (tent, constant, knots with a jump) in closed form vs quadrature.
 TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     std::vector<DensityProfile> profiles;
-    profiles.push_back(tent(10e3, 25e3, 40e3));
-    profiles.push_back(tent(0.0, 0.0, 3e3));  // a jump at the ground
+    profiles.push_back(tent_profile(10e3, 25e3, 40e3));
+    profiles.push_back(tent_profile(0.0, 0.0, 3e3));  // a jump at the ground
     DensityProfile c;
     c.kind = DensityProfile::Kind::constant;
     c.bottom_m = 1e3;
@@ -187,32 +174,7 @@ TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     }
 }
 
-// An Earth-like scene built here (independent of the presets).
-Scene earth_like() {
-    Scene s;
-    s.planet = {kR, kR + kTop, 0.1};
-    Constituent ray;
-    ray.name = "rayleigh";
-    ray.profile = exponential(8000.0);
-    ray.scattering.law = SpectralCoefficient::Law::power_law;
-    ray.scattering.value_per_m = 1.24062e-6;
-    ray.scattering.reference_nm = 1000.0;
-    ray.scattering.exponent = 4.0;
-    ray.phase.kind = PhaseFunction::Kind::rayleigh;
-    Constituent mie;
-    mie.name = "mie";
-    mie.profile = exponential(1200.0);
-    mie.scattering.value_per_m = 3.996e-6;
-    mie.absorption.value_per_m = 4.44e-7;
-    mie.phase = {PhaseFunction::Kind::cornette_shanks, 0.8};
-    Constituent oz;
-    oz.name = "ozone";
-    oz.profile = tent(10e3, 25e3, 40e3);
-    oz.absorption.law = SpectralCoefficient::Law::table;
-    oz.absorption.table = {{440.0, 8.5e-8}, {550.0, 1.88e-6}, {680.0, 6.5e-7}};
-    s.constituents = {ray, mie, oz};
-    return s;
-}
+Scene earth_like() { return test::earth_like_scene(); }
 
 TEST(OpticalDepth, AtmosphereMassesMatchQuadratureToTheTop) {
     const Scene scene = earth_like();

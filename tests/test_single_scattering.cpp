@@ -12,6 +12,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "test_scenes.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/scene_io.hpp"
@@ -73,42 +74,7 @@ TEST(Phase, KnownValuesAndShapes) {
 
 // ---- scenes -------------------------------------------------------------------------
 
-DensityProfile exponential(double H) {
-    DensityProfile p;
-    p.kind = DensityProfile::Kind::exponential;
-    p.scale_height_m = H;
-    return p;
-}
-
-Scene earth_like() {
-    Scene s;
-    s.planet = {kR, kR + kTop, 0.1};
-    Constituent ray;
-    ray.name = "rayleigh";
-    ray.profile = exponential(8000.0);
-    ray.scattering.law = SpectralCoefficient::Law::power_law;
-    ray.scattering.value_per_m = 1.24062e-6;
-    ray.scattering.reference_nm = 1000.0;
-    ray.scattering.exponent = 4.0;
-    ray.phase.kind = PhaseFunction::Kind::rayleigh;
-    Constituent mie;
-    mie.name = "mie";
-    mie.profile = exponential(1200.0);
-    mie.scattering.value_per_m = 3.996e-6;
-    mie.absorption.value_per_m = 4.44e-7;
-    mie.phase = {PhaseFunction::Kind::cornette_shanks, 0.8};
-    Constituent oz;
-    oz.name = "ozone";
-    oz.profile.kind = DensityProfile::Kind::tent;
-    oz.profile.bottom_m = 10e3;
-    oz.profile.peak_m = 25e3;
-    oz.profile.top_m = 40e3;
-    oz.absorption.law = SpectralCoefficient::Law::table;
-    oz.absorption.table = {{440.0, 8.5e-8}, {550.0, 1.88e-6}, {680.0, 6.5e-7}};
-    s.constituents = {ray, mie, oz};
-    s.sun.angular_radius_deg = 0.2678578;
-    return s;
-}
+Scene earth_like() { return test::earth_like_scene(); }
 
 const std::vector<double> kWavelengths{680.0, 550.0, 440.0};
 

@@ -65,25 +65,8 @@ struct EvalOptions {
 };
 
 std::vector<double> parse_wavelength_list(const std::string& spec) {
-    std::vector<double> out;
-    std::stringstream ss(spec);
-    std::string part;
-    while (std::getline(ss, part, ',')) {
-        std::size_t used = 0;
-        double v = 0.0;
-        try {
-            v = std::stod(part, &used);
-        } catch (const std::exception&) {
-            used = 0;
-        }
-        while (used < part.size() && (part[used] == ' ' || part[used] == '\t')) ++used;
-        if (part.empty() || used != part.size() || !std::isfinite(v) || !(v > 0.0) || v >= 1e6)
-            throw CliError("eval: --wavelengths '" + spec + "': '" + part +
-                           "' is not a wavelength in nm (a number in (0, 1e6))");
-        out.push_back(v);
-    }
-    if (out.empty()) throw CliError("eval: --wavelengths is empty");
-    return out;
+    return parse_number_list(spec, "eval: --wavelengths", "a wavelength in nm (a number in (0, 1e6))",
+                             [](double v) { return v > 0.0 && v < 1e6; });
 }
 
 void check_row(const NumericRow& r) {

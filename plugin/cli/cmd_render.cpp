@@ -29,6 +29,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "csv.hpp"
 
 namespace airmass::cli::render_detail {
 
@@ -65,21 +66,8 @@ struct RenderOptions {
 };
 
 std::vector<double> parse_numbers(const std::string& text, std::size_t count, const std::string& option) {
-    std::vector<double> out;
-    std::stringstream ss(text);
-    for (std::string part; std::getline(ss, part, ',');) {
-        std::size_t used = 0;
-        double v = 0.0;
-        try {
-            v = std::stod(part, &used);
-        } catch (const std::exception&) {
-            used = 0;
-        }
-        if (used == 0 || used != part.size() || !std::isfinite(v))
-            throw CliError("render: " + option + " '" + text + "': '" + part + "' is not a finite number");
-        out.push_back(v);
-    }
-    if (out.size() != count || text.empty() || text.back() == ',')
+    std::vector<double> out = parse_number_list(text, "render: " + option, "a finite number");
+    if (out.size() != count)
         throw CliError("render: " + option + " '" + text + "': expected " + std::to_string(count) +
                        " comma-separated numbers");
     return out;

@@ -18,6 +18,7 @@
 #include "airmass/vdb_export.hpp"
 #include "airmass/vdb_trade.hpp"
 #include "commands.hpp"
+#include "csv.hpp"
 
 namespace airmass::cli {
 
@@ -29,22 +30,7 @@ struct ReportVdbOptions {
 };
 
 std::vector<double> parse_sizes(const std::string& text) {
-    std::vector<double> out;
-    std::stringstream ss(text);
-    for (std::string part; std::getline(ss, part, ',');) {
-        std::size_t used = 0;
-        double v = 0;
-        try {
-            v = std::stod(part, &used);
-        } catch (const std::exception&) {
-            used = 0;
-        }
-        if (used != part.size() || !std::isfinite(v) || !(v > 0))
-            throw CliError("report vdb: --voxel-sizes: '" + part + "' is not a length > 0 (km)");
-        out.push_back(v);
-    }
-    if (out.empty()) throw CliError("report vdb: --voxel-sizes: give at least one size (km), e.g. 0.5,1,2");
-    return out;
+    return parse_number_list(text, "report vdb: --voxel-sizes", "a length > 0 (km)", [](double v) { return v > 0.0; });
 }
 
 }  // namespace

@@ -71,6 +71,19 @@ std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<st
     return rows;
 }
 
+std::vector<double> parse_number_list(const std::string& text, const std::string& what, const std::string& kind,
+                                      bool (*ok)(double)) {
+    if (trim(text).empty()) throw CliError(what + ": empty; give " + kind + " values separated by commas");
+    std::vector<double> out;
+    for (const std::string_view part : split(text)) {
+        double v = 0.0;
+        if (!parse_double(part, v) || !std::isfinite(v) || (ok && !ok(v)))
+            throw CliError(what + " '" + text + "': '" + std::string(trim(part)) + "' is not " + kind);
+        out.push_back(v);
+    }
+    return out;
+}
+
 std::string format_g17(double v) {
     if (std::isnan(v)) return "nan";
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";

@@ -19,6 +19,14 @@ struct NumericRow {
 // the line and the field on anything else.
 std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<std::string>& column_names);
 
+// A comma-separated list of finite numbers given on the command line ("680,550, 440"),
+// surrounding blanks allowed. `what` names the option in errors ("render: --box"); `kind`
+// says what each number must be ("a finite number", "a wavelength in nm (a number in
+// (0, 1e6))") and `ok` checks it. Throws CliError naming the option, the text and the bad
+// part; an empty list, an empty part or a trailing comma is an error.
+std::vector<double> parse_number_list(const std::string& text, const std::string& what, const std::string& kind,
+                                      bool (*ok)(double) = nullptr);
+
 // Shortest round-trip text for a double with 17 significant digits ("inf", "-inf", "nan" as such).
 std::string format_g17(double v);
 
