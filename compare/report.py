@@ -390,7 +390,7 @@ def markdown(job, summary, images):
     add("")
     add("Relative error e = (Blender − native)/max(native, 10⁻³·mean native) per pixel and channel; Blender = mean of "
         "K independent seeds; noise = their standard error. References: `native_physical_box` (spectral, the scene's "
-        "phase functions, each pixel's mean as Cycles' Box filter takes it) for the sky texture, `native_matched` (Henyey–Greenstein phases, Blender's RGB model) "
+        "phase functions, multiple scattering included as in the texture, each pixel's mean as Cycles' Box filter takes it) for the sky texture, `native_matched` (Henyey–Greenstein phases, Blender's RGB model) "
         "for the analytic volume, `native_matched_box` (the same, medium cut to the exported box) for the VDB volume.")
     rgb_rows = [(p, e["rgb_render"]) for p, e in summary["paths"].items() if "rgb_render" in e]
     if rgb_rows:
