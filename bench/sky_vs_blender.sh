@@ -97,12 +97,14 @@ read -r s32 s32_wall < <(airmass_best --preset blender-nishita --width 512 --hei
 read -r rgb rgb_wall < <(airmass_best --preset earth --basis rgb --width 2048 --height 1024 --no-multiple)
 read -r spec spec_wall < <(airmass_best --preset earth --width 2048 --height 1024 --no-multiple)
 read -r ms ms_wall < <(airmass_best --preset earth --width 2048 --height 1024)
+# The coarse sky grid whose error bench/nishita_error.py measures below Blender's own.
+read -r g16 g16_wall < <(airmass_best --preset blender-nishita --width 512 --height 256 --hemisphere upper --grid 16 --no-multiple)
 
-python3 - "$flat" "$sky" "$baseline" "$def" "$def_wall" "$s32" "$s32_wall" "$rgb" "$rgb_wall" "$spec" "$spec_wall" "$THREADS" "$ms" "$ms_wall" <<'EOF'
+python3 - "$flat" "$sky" "$baseline" "$def" "$def_wall" "$s32" "$s32_wall" "$rgb" "$rgb_wall" "$spec" "$spec_wall" "$THREADS" "$ms" "$ms_wall" "$g16" "$g16_wall" <<'EOF'
 import sys
 flat, sky, base, d, dw, s32, s32w, rgb, rgbw, spec, specw = map(float, sys.argv[1:12])
 threads = sys.argv[12]
-ms, msw = map(float, sys.argv[13:15])
+ms, msw, g16, g16w = map(float, sys.argv[13:17])
 print(f"Blender 3.4 render, flat World        {flat:8.3f} s")
 print(f"Blender 3.4 render, Nishita World     {sky:8.3f} s")
 print(f"Blender Nishita precompute (baseline) {base:8.3f} s   (512x128 upper hemisphere, 21 wavelengths, 32 steps)")
@@ -111,9 +113,12 @@ print(f"| airmass sky ({threads} threads) | render s | x Blender precompute | wa
 print("|---|---|---|---|")
 print(f"| blender-nishita 512x128 upper, defaults | {d:.4f} | {d / base:.2f} | {dw:.3f} |")
 print(f"| blender-nishita 512x128 upper, 32 samples | {s32:.4f} | {s32 / base:.2f} | {s32w:.3f} |")
+print(f"| blender-nishita 512x128 upper, --grid 16 | {g16:.4f} | {g16 / base:.3f} | {g16w:.3f} |")
 print(f"| earth 2048x1024 full sphere, RGB basis | {rgb:.4f} | {rgb / base:.2f} | {rgbw:.3f} |")
 print(f"| earth 2048x1024 full sphere, spectral-48 | {spec:.4f} | {spec / base:.2f} | {specw:.3f} |")
 print(f"| earth 2048x1024 full sphere, spectral-48, multiple scattering (the default) | {ms:.4f} | {ms / base:.2f} | {msw:.3f} |")
 print()
 print(f"2048x1024 full-sphere RGB <= 1 s on {threads} threads: {'yes' if rgb <= 1.0 else 'NO'} ({rgb:.3f} s)")
+print(f"blender-nishita hemisphere, --grid 16, <= 1/10 of Blender's precompute: {'yes' if g16 <= 0.1 * base else 'NO'} "
+      f"({g16 / base:.3f}; its error against Blender's: bench/nishita_error.py)")
 EOF
