@@ -23,42 +23,8 @@ import tempfile
 import numpy as np
 import OpenImageIO as oiio
 
-BLENDER_PANO = r"""
-import bpy, math, sys
-out, w, h, elev = sys.argv[sys.argv.index("--") + 1:]
-scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    if o.type != "CAMERA":
-        bpy.data.objects.remove(o)
-cam = scene.camera
-cam.location = (0, 0, 0)
-cam.rotation_euler = (math.pi / 2, 0, -math.pi / 2)  # level, along +X: the World's equirectangular frame
-cam.data.type = "PANO"
-cam.data.cycles.panorama_type = "EQUIRECTANGULAR"
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = 1
-scene.cycles.use_denoising = False
-scene.cycles.pixel_filter_type = "GAUSSIAN"
-scene.cycles.filter_width = 0.01
-scene.render.resolution_x, scene.render.resolution_y = int(w), int(h)
-scene.render.resolution_percentage = 100
-scene.view_settings.view_transform = "Standard"
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.render.filepath = out
-world = bpy.data.worlds.new("nishita")
-scene.world = world
-world.use_nodes = True
-tex = world.node_tree.nodes.new("ShaderNodeTexSky")
-tex.sky_type = "NISHITA"
-tex.sun_elevation = math.radians(float(elev))
-tex.sun_rotation = math.radians(90.0)
-tex.altitude = 1.0
-tex.sun_disc = False
-world.node_tree.links.new(tex.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-bpy.ops.render.render(write_still=True)
-"""
+# Blender renders its own Nishita sky with this script (shared with tests/python/test_sky_exr.py).
+BLENDER_PANO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts", "blender_nishita_pano.py")
 
 
 def read(path):
@@ -110,8 +76,6 @@ def main():
     for g in grids:
         errs["airmass, grid %d%s" % (g, " (every pixel)" if g == 0 else "")] = ([], [])
     with tempfile.TemporaryDirectory() as tmp:
-        script = os.path.join(tmp, "pano.py")
-        open(script, "w").write(BLENDER_PANO)
         for elev in elevations:
             print("nishita_error: sun %g°" % elev, file=sys.stderr)
             # Distinct file names: OpenImageIO caches images by name, so a rewritten file
@@ -120,8 +84,8 @@ def main():
                               ["--chapman", "exact", "--samples", "128", "--grid", "0",
                                "--wavelengths", "380:780:2.5"])[:rows]
             out = os.path.join(tmp, "blender_%g.exr" % elev)
-            p = subprocess.run([a.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", script,
-                                "--", out, str(w), str(h), str(elev)], capture_output=True, text=True)
+            p = subprocess.run([a.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", BLENDER_PANO,
+                                "--", out, str(w), str(h), str(elev), "90"], capture_output=True, text=True)
             if p.returncode != 0 or not os.path.exists(out):
                 sys.exit("nishita_error: Blender failed:\n" + p.stdout[-2000:] + p.stderr[-2000:])
             wts = np.repeat(weight_row[:, None], w, axis=1).ravel()

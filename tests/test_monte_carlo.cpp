@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "test_scenes.hpp"
 #include "airmass/atmosphere.hpp"
 #include "airmass/monte_carlo.hpp"
 #include "airmass/optical_depth.hpp"
@@ -101,14 +102,7 @@ TEST(MonteCarlo, FreePathsFollowTheTruncatedExponentialLaw) {
 }
 
 TEST(MonteCarlo, ConservativeAtmosphereSendsOutWhatItIntercepts) {
-    Scene scene = load_preset("earth");
-    scene.planet.ground_albedo = 1.0;
-    std::vector<Constituent> keep;
-    for (Constituent c : scene.constituents) {
-        c.absorption = SpectralCoefficient{};
-        if (!c.scattering.is_zero()) keep.push_back(c);
-    }
-    scene.constituents = keep;
+    Scene scene = test::conservative_scene(load_preset("earth"));
     const std::vector<double> wl = {550.0};
     Atmosphere atm = compile_atmosphere(scene, wl);
     set_constant_irradiance(atm, 1.0);

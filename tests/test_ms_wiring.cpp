@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "test_cli.hpp"
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
 #include "airmass/geometry.hpp"
@@ -34,15 +35,7 @@ namespace {
 
 // ---- `airmass eval` ------------------------------------------------------------------------
 
-std::string run(const std::string& cmd, int& status) {
-    std::string out;
-    std::unique_ptr<FILE, int (*)(FILE*)> p(popen(cmd.c_str(), "r"), pclose);
-    char buf[4096];
-    std::size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p.get())) > 0) out.append(buf, n);
-    status = pclose(p.release());
-    return out;
-}
+using test::run_command;
 
 struct Csv {
     std::vector<std::string> header;
@@ -96,7 +89,7 @@ constexpr int kNoon = 0, kTwilightToward = 1, kTwilightAway = 2, kNightZenith = 
 const std::vector<double> kWavelengths = {680.0, 550.0, 440.0};
 
 std::string eval_cli(const std::string& extra, int& status) {
-    return run(std::string("printf '") + kRows + "' | " AIRMASS_CLI +
+    return run_command(std::string("printf '") + kRows + "' | " AIRMASS_CLI +
                    " eval --preset earth --wavelengths 680,550,440 --solar-irradiance 1 " + extra + " 2>&1",
                status);
 }

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "test_scenes.hpp"
 #include "airmass/atmosphere.hpp"
 #include "airmass/monte_carlo.hpp"
 #include "airmass/multiple_scattering.hpp"
@@ -103,15 +104,7 @@ INSTANTIATE_TEST_SUITE_P(
 // ---- energy conservation ---------------------------------------------------------------------
 
 Atmosphere conservative_earth() {
-    Scene scene = load_preset("earth");
-    scene.planet.ground_albedo = 1.0;
-    std::vector<Constituent> keep;
-    for (Constituent c : scene.constituents) {
-        c.absorption = SpectralCoefficient{};
-        if (!c.scattering.is_zero()) keep.push_back(c);
-    }
-    scene.constituents = keep;
-    Atmosphere atm = compile_atmosphere(scene, kWavelengths);
+    Atmosphere atm = compile_atmosphere(test::conservative_scene(load_preset("earth")), kWavelengths);
     set_constant_irradiance(atm, 1.0);
     return atm;
 }

@@ -2,6 +2,8 @@
 // a mistake in a preset file cannot hide behind a test that reads the same file.
 #pragma once
 
+#include <vector>
+
 #include "airmass/scene.hpp"
 
 namespace airmass::test {
@@ -54,6 +56,20 @@ inline Scene earth_like_scene() {
     oz.absorption.table = {{440.0, 8.5e-8}, {550.0, 1.88e-6}, {680.0, 6.5e-7}};
     s.constituents = {ray, mie, oz};
     s.sun.angular_radius_deg = 0.2678578;
+    return s;
+}
+
+// The scene made conservative, for energy-balance checks: every absorption removed, the
+// constituents that do not scatter dropped, a white ground (albedo 1). All light the
+// atmosphere intercepts must then leave it again.
+inline Scene conservative_scene(Scene s) {
+    s.planet.ground_albedo = 1.0;
+    std::vector<Constituent> keep;
+    for (Constituent c : s.constituents) {
+        c.absorption = SpectralCoefficient{};
+        if (!c.scattering.is_zero()) keep.push_back(c);
+    }
+    s.constituents = keep;
     return s;
 }
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "test_scenes.hpp"
+#include "test_cli.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/scene_io.hpp"
@@ -345,19 +346,11 @@ TEST(AerialPerspective, MatchesSingleScatteringAndComposes) {
 
 // ---- the command line ----------------------------------------------------------------------
 
-std::string run(const std::string& cmd, int& status) {
-    std::string out;
-    std::unique_ptr<FILE, int (*)(FILE*)> p(popen(cmd.c_str(), "r"), pclose);
-    char buf[4096];
-    std::size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p.get())) > 0) out.append(buf, n);
-    status = pclose(p.release());
-    return out;
-}
+using test::run_command;
 
 TEST(EvalCli, WritesOneRowPerWavelength) {
     int status = 0;
-    const std::string out = run("printf 'altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg\\n0,45,30,0\\n"
+    const std::string out = run_command("printf 'altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg\\n0,45,30,0\\n"
                                 "1000000,170,98,0\\n' | " AIRMASS_CLI
                                 " eval --preset earth --wavelengths 680,550,440 --solar-irradiance 1",
                                 status);
@@ -379,14 +372,14 @@ TEST(EvalCli, WritesOneRowPerWavelength) {
 
 TEST(EvalCli, BadRowsNameTheLine) {
     int status = 0;
-    std::string out = run("printf '0,45,30,0\\n0,200,30,0\\n' | " AIRMASS_CLI " eval --preset earth 2>&1", status);
+    std::string out = run_command("printf '0,45,30,0\\n0,200,30,0\\n' | " AIRMASS_CLI " eval --preset earth 2>&1", status);
     EXPECT_NE(status, 0);
     EXPECT_NE(out.find("line 2"), std::string::npos) << out;
     EXPECT_NE(out.find("view_zenith_deg"), std::string::npos) << out;
-    out = run("printf '0,45,x,0\\n' | " AIRMASS_CLI " eval --preset earth 2>&1", status);
+    out = run_command("printf '0,45,x,0\\n' | " AIRMASS_CLI " eval --preset earth 2>&1", status);
     EXPECT_NE(status, 0);
     EXPECT_NE(out.find("line 1"), std::string::npos) << out;
-    out = run("printf '0,45,30,0\\n' | " AIRMASS_CLI " eval --preset earth --samples 0 2>&1", status);
+    out = run_command("printf '0,45,30,0\\n' | " AIRMASS_CLI " eval --preset earth --samples 0 2>&1", status);
     EXPECT_NE(status, 0);
     EXPECT_NE(out.find("--samples"), std::string::npos) << out;
 }

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "airmass/chapman.hpp"
+#include "airmass/vdb_export.hpp"  // write_text_atomic
 #include "commands.hpp"
 #include "csv.hpp"
 
@@ -167,15 +168,6 @@ std::string fmt_err(const Stats& s) {
     return buf;
 }
 
-void write_atomic(const std::filesystem::path& path, const std::string& text) {
-    const auto tmp = path.string() + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f << text;
-        if (!f) throw CliError("cannot write " + tmp);
-    }
-    std::filesystem::rename(tmp, path);
-}
 
 void run_report(const std::filesystem::path& out_dir, int per_region) {
     std::error_code ec;
@@ -271,9 +263,9 @@ void run_report(const std::filesystem::path& out_dir, int per_region) {
             md << " |\n";
         }
     }
-    write_atomic(out_dir / "chapman_trade.csv", trade.str());
-    write_atomic(out_dir / "chapman_timing.csv", timing.str());
-    write_atomic(out_dir / "chapman_trade.md", md.str());
+    write_text_atomic(out_dir / "chapman_trade.csv", trade.str());
+    write_text_atomic(out_dir / "chapman_timing.csv", timing.str());
+    write_text_atomic(out_dir / "chapman_trade.md", md.str());
 
     // Curves for the plot: relative error vs chi at four x.
     std::ostringstream curves;
@@ -294,7 +286,7 @@ void run_report(const std::filesystem::path& out_dir, int per_region) {
             }
         }
     }
-    write_atomic(out_dir / "chapman_curves.csv", curves.str());
+    write_text_atomic(out_dir / "chapman_curves.csv", curves.str());
     std::fputs(md.str().c_str(), stdout);
 }
 

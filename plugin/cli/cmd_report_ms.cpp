@@ -36,6 +36,7 @@
 #include "airmass/progress.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/vdb_export.hpp"  // write_text_atomic
 #include "commands.hpp"
 #include "csv.hpp"
 
@@ -72,15 +73,6 @@ struct Reference {
     std::uint64_t paths = 0, seed = 0;
 };
 
-void write_atomic(const std::filesystem::path& path, const std::string& text) {
-    const auto tmp = path.string() + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f << text;
-        if (!f) throw CliError("cannot write " + tmp);
-    }
-    std::filesystem::rename(tmp, path);
-}
 
 bool load_reference(const std::filesystem::path& path, std::uint64_t paths, std::uint64_t seed, Reference& ref) {
     std::ifstream f(path);
@@ -260,7 +252,7 @@ void run_report(const Options& o) {
                     << kCases[c].elevation_deg << "," << kCases[c].azimuth_deg << "," << kWavelengths[w] << ","
                     << format_g17(ref.single[c][w]) << "," << format_g17(ref.mc[c][w]) << ","
                     << format_g17(ref.se[c][w]) << "," << o.paths << "," << o.seed << "\n";
-        write_atomic(ref_path, csv.str());
+        write_text_atomic(ref_path, csv.str());
     } else if (!o.quiet) {
         std::fprintf(stderr, "report ms: reusing %s\n", ref_path.string().c_str());
     }
@@ -413,15 +405,15 @@ void run_report(const Options& o) {
     }
     pmd << "\nCases: sun 30° zenith, sun 5° view 20° at 120° from the sun, sun 30° view 10° toward it and 30° "
            "across; Monte Carlo " << std::max<std::uint64_t>(o.paths / 4, 100) << " paths, orders ≥ 2.\n";
-    write_atomic(dir / "ms_presets.csv", pcsv.str());
-    write_atomic(dir / "ms_presets.md", pmd.str());
+    write_text_atomic(dir / "ms_presets.csv", pcsv.str());
+    write_text_atomic(dir / "ms_presets.md", pmd.str());
 
     md << "\nReference: Monte Carlo (" << ref.paths << " paths per case and wavelength, orders ≥ 2) plus the exact "
        << "single scattering, " << kCaseCount << " cases × 440/550/680 nm (ms_reference.csv); mean Monte Carlo "
        << "standard error " << fmt("%.2f %%", mean_sigma_pct) << " of the total. Errors are of the total radiance.\n";
-    write_atomic(dir / "ms_trade.csv", trade.str());
-    write_atomic(dir / "ms_cases.csv", cases.str());
-    write_atomic(dir / "ms_trade.md", md.str());
+    write_text_atomic(dir / "ms_trade.csv", trade.str());
+    write_text_atomic(dir / "ms_cases.csv", cases.str());
+    write_text_atomic(dir / "ms_trade.md", md.str());
     if (!o.quiet) std::fprintf(stderr, "report ms: wrote %s/ms_trade.{csv,md}, ms_cases.csv, ms_reference.csv\n", o.out.c_str());
 }
 

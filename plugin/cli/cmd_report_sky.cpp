@@ -40,6 +40,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "airmass/sky.hpp"
+#include "airmass/vdb_export.hpp"  // write_text_atomic
 #include "commands.hpp"
 #include "csv.hpp"
 
@@ -157,15 +158,6 @@ std::string pct(double v) {
     return b;
 }
 
-void write_atomic(const fs::path& path, const std::string& text) {
-    const auto tmp = path.string() + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f << text;
-        if (!f) throw CliError("report sky: cannot write " + tmp);
-    }
-    fs::rename(tmp, path);
-}
 
 struct Options {
     std::string out = "out/sky";
@@ -481,10 +473,10 @@ void run_report(const Options& opt) {
           "max above | p95 below | max below |\n|---|---|---|---|---|---|\n"
        << ref_md.str();
 
-    write_atomic(fs::path(opt.out) / "sky_trade.csv", csv.str());
-    write_atomic(fs::path(opt.out) / "sky_trade_conditions.csv", cond_csv.str());
-    write_atomic(fs::path(opt.out) / "sky_reference.csv", ref_csv.str());
-    write_atomic(fs::path(opt.out) / "sky_trade.md", md.str());
+    write_text_atomic(fs::path(opt.out) / "sky_trade.csv", csv.str());
+    write_text_atomic(fs::path(opt.out) / "sky_trade_conditions.csv", cond_csv.str());
+    write_text_atomic(fs::path(opt.out) / "sky_reference.csv", ref_csv.str());
+    write_text_atomic(fs::path(opt.out) / "sky_trade.md", md.str());
     std::fputs(md.str().c_str(), stdout);
 }
 

@@ -10,6 +10,8 @@
 
 #include "airmass/sky.hpp"
 
+#include "message_format.hpp"
+
 namespace airmass {
 
 namespace {
@@ -17,13 +19,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 
-std::string num(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
-
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+using detail::all_finite;
+using detail::message_number;
 
 }  // namespace
 
@@ -41,10 +38,10 @@ std::string_view projection_name(Projection p) {
 }
 
 CameraPose look_at(const glm::dvec3& position_m, const glm::dvec3& direction, const glm::dvec3& up) {
-    if (!finite(position_m)) throw CameraError("camera.position_m: must be 3 finite numbers");
+    if (!all_finite(position_m)) throw CameraError("camera.position_m: must be 3 finite numbers");
     const double dl = glm::length(direction), ul = glm::length(up);
-    if (!finite(direction) || !(dl > 0.0)) throw CameraError("camera.direction: must be a finite non-zero vector");
-    if (!finite(up) || !(ul > 0.0)) throw CameraError("camera.up: must be a finite non-zero vector");
+    if (!all_finite(direction) || !(dl > 0.0)) throw CameraError("camera.direction: must be a finite non-zero vector");
+    if (!all_finite(up) || !(ul > 0.0)) throw CameraError("camera.up: must be a finite non-zero vector");
     const glm::dvec3 f = direction / dl;
     const glm::dvec3 r = glm::cross(f, up / ul);
     const double rl = glm::length(r);
@@ -60,7 +57,7 @@ CameraPose look_at(const glm::dvec3& position_m, const glm::dvec3& direction, co
 
 void validate(const CameraModel& c) {
     auto fail = [](const std::string& field, double v, const std::string& allowed) {
-        throw CameraError("camera." + field + " = " + num(v) + ": must be " + allowed);
+        throw CameraError("camera." + field + " = " + message_number(v) + ": must be " + allowed);
     };
     if (c.width < 1 || c.width > 65536) fail("width", c.width, "an integer in [1, 65536]");
     if (c.height < 1 || c.height > 65536) fail("height", c.height, "an integer in [1, 65536]");
@@ -79,7 +76,7 @@ void validate(const CameraModel& c) {
             fail("longitude_min_deg", c.longitude_min_deg, "< longitude_max_deg, both in [-180, 180]");
     }
     const CameraPose& p = c.pose;
-    if (!finite(p.position_m)) throw CameraError("camera.position_m: must be 3 finite numbers");
+    if (!all_finite(p.position_m)) throw CameraError("camera.position_m: must be 3 finite numbers");
     const double ortho = std::abs(glm::dot(p.right, p.up)) + std::abs(glm::dot(p.up, p.back)) +
                          std::abs(glm::dot(p.back, p.right));
     const double norm = std::abs(glm::length(p.right) - 1.0) + std::abs(glm::length(p.up) - 1.0) +
@@ -91,15 +88,15 @@ void validate(const CameraModel& c) {
 
 double focal_length_mm_from_fov(double fov_deg, double sensor_mm) {
     if (!(fov_deg > 0.0 && fov_deg < 180.0))
-        throw CameraError("camera.fov_deg = " + num(fov_deg) + ": must be in (0, 180)");
+        throw CameraError("camera.fov_deg = " + message_number(fov_deg) + ": must be in (0, 180)");
     if (!(sensor_mm > 0.0) || !std::isfinite(sensor_mm))
-        throw CameraError("camera sensor = " + num(sensor_mm) + " mm: must be > 0");
+        throw CameraError("camera sensor = " + message_number(sensor_mm) + " mm: must be > 0");
     return 0.5 * sensor_mm / std::tan(0.5 * fov_deg * kDeg);
 }
 
 double fov_deg_from_focal_length(double focal_length_mm, double sensor_mm) {
     if (!(focal_length_mm > 0.0) || !std::isfinite(focal_length_mm))
-        throw CameraError("camera.focal_length_mm = " + num(focal_length_mm) + ": must be > 0");
+        throw CameraError("camera.focal_length_mm = " + message_number(focal_length_mm) + ": must be > 0");
     return 2.0 * std::atan(0.5 * sensor_mm / focal_length_mm) / kDeg;
 }
 

@@ -24,6 +24,8 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 
+#include "message_format.hpp"
+
 namespace airmass {
 
 namespace {
@@ -31,13 +33,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string num(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
-
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+using detail::all_finite;
+using detail::message_number;
 
 }  // namespace
 
@@ -46,7 +43,7 @@ bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.
 void validate(const RenderSettings& s) {
     auto range = [](const char* field, double v, double lo, double hi) {
         if (!(v >= lo && v <= hi))
-            throw RenderError(std::string(field) + " = " + num(v) + ": must be in [" + num(lo) + ", " + num(hi) + "]");
+            throw RenderError(std::string(field) + " = " + message_number(v) + ": must be in [" + message_number(lo) + ", " + message_number(hi) + "]");
     };
     range("samples", s.view_samples, 1, 65536);
     range("threads", s.threads, 0, 4096);
@@ -56,7 +53,7 @@ void validate(const RenderSettings& s) {
         for (int c = 0; c < 3; ++c) range("rgb_wavelengths_nm", s.rgb_wavelengths_nm[c], 360.0, 830.0);
     if (s.medium_box) {
         const MediumBox& b = *s.medium_box;
-        if (!finite(b.min_m) || !finite(b.max_m) || !(b.min_m.x < b.max_m.x && b.min_m.y < b.max_m.y &&
+        if (!all_finite(b.min_m) || !all_finite(b.max_m) || !(b.min_m.x < b.max_m.x && b.min_m.y < b.max_m.y &&
                                                        b.min_m.z < b.max_m.z))
             throw RenderError("medium_box: must be finite with min < max on every axis");
         if (s.multiple_scattering)
@@ -404,8 +401,8 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
 
     const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
     if (!(frame.altitude_m >= 0.0))
-        throw RenderError("camera.position_m = (" + num(cam.pose.position_m.x) + ", " + num(cam.pose.position_m.y) +
-                          ", " + num(cam.pose.position_m.z) + "): " + num(-frame.altitude_m) +
+        throw RenderError("camera.position_m = (" + message_number(cam.pose.position_m.x) + ", " + message_number(cam.pose.position_m.y) +
+                          ", " + message_number(cam.pose.position_m.z) + "): " + message_number(-frame.altitude_m) +
                           " m below the planet surface; it must be at or above it");
     const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
     const glm::dvec3 sun_obs = frame.to_observer(sun);

@@ -10,7 +10,6 @@ import os
 import shutil
 import signal
 import subprocess
-import textwrap
 import time
 
 import numpy as np
@@ -180,43 +179,8 @@ def test_ctrl_c_leaves_no_file(airmass_bin, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-BLENDER_PANO = textwrap.dedent("""
-    import math, sys
-    import bpy
-    out, w, h, elev, rot = sys.argv[sys.argv.index("--") + 1:]
-    scene = bpy.context.scene
-    for o in list(bpy.data.objects):
-        if o.type != "CAMERA":
-            bpy.data.objects.remove(o)
-    cam = scene.camera
-    cam.location = (0, 0, 0)
-    # Level, looking along +X: the panorama then uses the World's equirectangular convention.
-    cam.rotation_euler = (math.pi / 2, 0, -math.pi / 2)
-    cam.data.type = "PANO"
-    cam.data.cycles.panorama_type = "EQUIRECTANGULAR"
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 1
-    scene.cycles.use_denoising = False
-    scene.cycles.filter_width = 0.01  # one ray through each pixel centre
-    scene.render.resolution_x, scene.render.resolution_y = int(w), int(h)
-    scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.render.filepath = out
-    world = bpy.data.worlds.new("nishita")
-    scene.world = world
-    world.use_nodes = True
-    tex = world.node_tree.nodes.new("ShaderNodeTexSky")
-    tex.sky_type = "NISHITA"
-    tex.sun_elevation = math.radians(float(elev))
-    tex.sun_rotation = math.radians(float(rot))
-    tex.altitude = 1.0
-    tex.sun_disc = False
-    world.node_tree.links.new(tex.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-    bpy.ops.render.render(write_still=True)
-""")
+# Blender renders its own Nishita sky with this script (shared with bench/nishita_error.py).
+BLENDER_PANO = os.path.join(os.path.dirname(__file__), "..", "..", "scripts", "blender_nishita_pano.py")
 
 
 @pytest.mark.skipif(shutil.which("blender") is None, reason="blender not installed")
@@ -228,8 +192,7 @@ def test_matches_blenders_own_nishita_sky(airmass_bin, tmp_path, elevation, rota
     replaces the other): median ratio within 3 % above 10° elevation, where Blender's
     32-step, 512×128-texture approximation is itself converged."""
     w, h = 256, 128
-    script = tmp_path / "pano.py"
-    script.write_text(BLENDER_PANO)
+    script = BLENDER_PANO
     blender_exr = tmp_path / "blender.exr"
     proc = subprocess.run(["blender", "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script),
                            "--", str(blender_exr), str(w), str(h), str(elevation), str(rotation)],
