@@ -311,18 +311,17 @@ struct PixelNode {
 };
 
 // The box pixel filter (what Cycles 3.4's Box filter does: the mean over the pixel's square)
-// as a product Gauss–Legendre rule, 4 columns × 4 rows. The image is smooth inside a pixel
-// except where the ground meets the sky (a jump in radiance); a column whose ends fall on
-// different sides is split at the crossing, found by bisection to 1e-6 px, and each side is
-// integrated separately, so the horizon row is integrated as accurately as the sky around it.
+// as a product of the 4-point Gauss–Legendre rule above (kGlX, kGlW), 4 columns × 4 rows.
+// The image is smooth inside a pixel except where the ground meets the sky (a jump in
+// radiance); a column whose ends fall on different sides is split at the crossing, found by
+// bisection to 1e-6 px, and each side is integrated separately, so the horizon row is
+// integrated as accurately as the sky around it.
 // A column holding two crossings with the same class at both ends (a planet smaller than a
 // pixel) is not split: such pixels are a sampling question, not a radiance one.
 template <class SeesGround>
 void box_filter_nodes(const CameraModel& cam, int i, int j, const SeesGround& sees_ground, std::vector<PixelNode>& out) {
-    constexpr double gx[4] = {0.0694318442029737, 0.3300094782075719, 0.6699905217924281, 0.9305681557970263};
-    constexpr double gw[4] = {0.1739274225687269, 0.3260725774312731, 0.3260725774312731, 0.1739274225687269};
     for (int a = 0; a < 4; ++a) {
-        const double x = i + gx[a];
+        const double x = i + kGlX[a];
         auto ground_at = [&](double y) { return sees_ground(camera_ray_direction(cam, x, y)); };
         double lo = j, hi = j + 1.0;
         const bool g_lo = ground_at(lo), g_hi = ground_at(hi);
@@ -337,7 +336,7 @@ void box_filter_nodes(const CameraModel& cam, int i, int j, const SeesGround& se
         for (const auto& [y0, y1] : {std::pair{double(j), split}, std::pair{split, j + 1.0}}) {
             if (!(y1 > y0)) continue;
             for (int b = 0; b < 4; ++b)
-                out.push_back({camera_ray_direction(cam, x, y0 + (y1 - y0) * gx[b]), gw[a] * gw[b] * (y1 - y0)});
+                out.push_back({camera_ray_direction(cam, x, y0 + (y1 - y0) * kGlX[b]), kGlW[a] * kGlW[b] * (y1 - y0)});
         }
     }
 }
