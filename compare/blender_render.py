@@ -4,7 +4,7 @@ Run by `airmass compare` as
 
     blender -b --factory-startup --python-exit-code 1 --python compare/blender_render.py -- JOB.json PATH
 
-with PATH one of sky_texture, analytic_volume, vdb_volume. JOB.json (written by
+with PATH one of sky_texture, analytic_volume, analytic_volume_ms, vdb_volume. JOB.json (written by
 `airmass compare`) holds the camera in Blender's terms, the sun lamp, the planet, the
 constituents' RGB coefficients and the files to use; everything is in kilometres
 (1 Blender unit = 1 km), the scene frame of docs/scene.md (Z up, planet centre at
@@ -21,7 +21,9 @@ Settings that make the render comparable with the native image:
     Box filter ignores its width and always covers one pixel);
   * view transform Standard, exposure 0 (EXR output is linear either way);
   * volume paths: every bounce count 0 (single scattering, the ground lit by the sun
-    only), a black world, a Sun lamp of angle 0 whose strength x colour is the sun's
+    only) — except analytic_volume_ms, multiple scattering: volume and diffuse bounces
+    up to job["multiple"]["bounces"] (light scattered again and again, reflected by the
+    ground and scattered again), Russian roulette being unbiased; a black world, a Sun lamp of angle 0 whose strength x colour is the sun's
     top-of-atmosphere irradiance in linear Rec.709 (W m^-2);
   * the planet: an opaque Lambertian sphere meshed with rings around the camera's nadir
     (millimetre facets below the camera, tens of metres on the far side), exact sphere
@@ -39,7 +41,7 @@ import traceback
 
 import bpy
 
-PATHS = ("sky_texture", "analytic_volume", "vdb_volume")
+PATHS = ("sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume")
 
 
 # ---- small helpers --------------------------------------------------------------------
@@ -128,6 +130,12 @@ def setup_render(scene, job, path):
     cy.glossy_bounces = 0
     cy.transmission_bounces = 0
     cy.volume_bounces = 0
+    if path == "analytic_volume_ms":
+        n = int(job["multiple"]["bounces"])
+        cy.max_bounces = n
+        cy.diffuse_bounces = n
+        cy.volume_bounces = n
+        cy.min_light_bounces = 0  # Russian roulette from the first bounce (unbiased)
     cy.transparent_max_bounces = 64
     cy.caustics_reflective = False
     cy.caustics_refractive = False
@@ -439,6 +447,18 @@ class Closures:
       set_split(c, i):      S_i = σs_i,c (grey), S_j = 0 and X_j = σs_j,c for j ≠ i,
                             A_j = σa_j,c — grey, one scattering closure, the full extinction.
     Single scattering is additive over scatterers, so Σ_i split(c, i) is channel c of the image.
+
+    With multiple scattering (analytic_volume_ms) splitting by scatterer is wrong — light
+    scattered by one constituent is scattered again by the other — so each render holds the
+    whole medium at one channel, grey:
+      set_ms_closures(c):   S_j = σs_j,c for every j, A_j = σa_j,c — one closure per scatterer,
+                            which Cycles 3.4 renders biased (the phase-summing bias, measured);
+      set_ms_dither(c):     every S_j = 0; the single closure D = Volume Scatter of density
+                            Σ_j σs_j,c ρ_j whose anisotropy is g_j with probability
+                            σs_j,c ρ_j / Σ σs, picked by a White Noise texture of the shading
+                            position (a hash of the float bits: independent at every ray-marching
+                            point). In expectation the phase at each point is Σ_j σs_j p_j / σs,
+                            the mixture, with one closure: unbiased.
     """
 
     def __init__(self):
@@ -446,6 +466,7 @@ class Closures:
         self.absorb = {}    # name -> (node, k)
         self.stand_in = {}  # name -> (node, k)
         self.constituents = {}
+        self.dither = None  # (Volume Scatter node, {name: Math node whose input 1 is σs_j,c})
 
     def scatterers(self):
         return [n for n in self.scatter]
@@ -454,7 +475,12 @@ class Closures:
     def _absorb(node, k, values):
         node.inputs["Color"].default_value = tuple(1.0 - v / k for v in values) + (1.0,)
 
+    def _dither_off(self):
+        if self.dither:
+            self.dither[0].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+
     def set_rgb(self):
+        self._dither_off()
         for name, c in self.constituents.items():
             if name in self.scatter:
                 s = c["scattering_rgb"]
@@ -466,6 +492,7 @@ class Closures:
                 self._absorb(node, k, c["absorption_rgb"])
 
     def set_split(self, channel, scatterer):
+        self._dither_off()
         for name, c in self.constituents.items():
             if name in self.scatter:
                 v = c["scattering_rgb"][channel]
@@ -476,6 +503,58 @@ class Closures:
             if name in self.absorb:
                 node, k = self.absorb[name]
                 self._absorb(node, k, (c["absorption_rgb"][channel],) * 3)
+
+
+    def set_ms(self, channel, dither):
+        """Grey, the whole medium at `channel`: one closure per scatterer, or the dithered one."""
+        if dither and not self.dither:
+            raise RuntimeError("the material has no dithered scattering closure")
+        for name, c in self.constituents.items():
+            if name in self.scatter:
+                v = 0.0 if dither else c["scattering_rgb"][channel]
+                self.scatter[name].inputs["Color"].default_value = (v, v, v, 1.0)
+                node, k = self.stand_in[name]
+                self._absorb(node, k, (0.0,) * 3)
+            if name in self.absorb:
+                node, k = self.absorb[name]
+                self._absorb(node, k, (c["absorption_rgb"][channel],) * 3)
+        if self.dither:
+            scatter, weights = self.dither
+            scatter.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0) if dither else (0.0, 0.0, 0.0, 1.0)
+            for name, node in weights.items():
+                node.inputs[1].default_value = float(self.constituents[name]["scattering_rgb"][channel])
+
+
+def dithered_scatter(nodes, scatterers, closures):
+    """One Volume Scatter for several scatterers (Closures.set_ms): density Σ_j w_j ρ_j and
+    anisotropy g_j where u·Σ w ρ falls in scatterer j's share, u = White Noise(position)."""
+    weights, d = {}, []
+    for c, rho in scatterers:
+        w = nodes.n.new("ShaderNodeMath")
+        w.operation = "MULTIPLY"
+        nodes.l.new(rho, w.inputs[0])
+        w.inputs[1].default_value = 0.0
+        weights[c["name"]] = w
+        d.append(w.outputs[0])
+    total = d[0]
+    for x in d[1:]:
+        total = nodes.math("ADD", total, x)
+    noise = nodes.n.new("ShaderNodeTexWhiteNoise")
+    noise.noise_dimensions = "3D"
+    nodes.l.new(nodes.n.new("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
+    u_total = nodes.math("MULTIPLY", noise.outputs["Value"], total)
+    g = nodes.math("ADD", nodes.math("MULTIPLY", total, 0.0), float(scatterers[0][0]["g_hg"]))
+    cum = d[0]
+    for j in range(1, len(scatterers)):
+        step = float(scatterers[j][0]["g_hg"]) - float(scatterers[j - 1][0]["g_hg"])
+        g = nodes.math("ADD", g, nodes.math("MULTIPLY", nodes.math("GREATER_THAN", u_total, cum), step))
+        cum = nodes.math("ADD", cum, d[j])
+    sc = nodes.n.new("ShaderNodeVolumeScatter")
+    sc.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    nodes.l.new(total, sc.inputs["Density"])
+    nodes.l.new(g, sc.inputs["Anisotropy"])
+    closures.dither = (sc, weights)
+    return sc.outputs[0]
 
 
 def volume_closures(nodes, constituent, density, closures):
@@ -504,7 +583,7 @@ def volume_closures(nodes, constituent, density, closures):
     return out
 
 
-def volume_material(name, job, density_of):
+def volume_material(name, job, density_of, dither=False):
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     nt = mat.node_tree
@@ -514,10 +593,16 @@ def volume_material(name, job, density_of):
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     shaders = []
     closures = Closures()
+    scatterers = []
     for c in job["constituents"]:
-        shaders += volume_closures(nodes, c, density_of(nodes, c), closures)
+        rho = density_of(nodes, c)
+        shaders += volume_closures(nodes, c, rho, closures)
+        if max(c["scattering_rgb"]) > 0.0:
+            scatterers.append((c, rho))
     if not shaders:
         raise RuntimeError("no constituent scatters or absorbs: nothing to render")
+    if dither and scatterers:
+        shaders.append(dithered_scatter(nodes, scatterers, closures))
     closures.set_rgb()
     acc = shaders[0]
     for sh in shaders[1:]:
@@ -545,7 +630,7 @@ def set_step(scene, mat, base_step_km, want_step_km, max_steps):
     return base_step_km * mat_rate * scene_rate
 
 
-def make_analytic_volume(scene, job):
+def make_analytic_volume(scene, job, path):
     planet = job["planet"]
     R, top = float(planet["radius"]), float(planet["top"])
     top_alt = top - R
@@ -558,7 +643,7 @@ def make_analytic_volume(scene, job):
         h = altitude_socket(nodes, planet["center"], R)
         return profile_socket(nodes, h, c["profile"], top_alt)
 
-    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of)
+    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of, dither=path == "analytic_volume_ms")
     obj.data.materials.append(mat)
     base = 0.1 * 2.0 * (top + margin)  # 0.1 × mean bounding-box size
     step = set_step(scene, mat, base, float(job["volume"]["step_km"]), job["volume"]["max_steps"])
@@ -669,6 +754,24 @@ def render_seeds(scene, job, path, out_dir, sun_obj):
     sun = sun_obj.data
     e = job["sun"]["irradiance_rgb"]
     scatterers = sorted({n for c in closures for n in c.scatterers()})
+    if path == "analytic_volume_ms":
+        # Multiple scattering: per channel c one grey render of the whole medium at c, white
+        # lamp of E_c, the ground lit (it reflects sun- and skylight back into the medium).
+        set_ground_lit(True)
+        sun.color = (1.0, 1.0, 1.0)
+        for mode in job["multiple"].get("modes", ["dither", "closures"]):
+            times[mode] = []
+            for k in range(seeds):
+                scene.cycles.seed = base + k
+                t = 0.0
+                for ch in range(3):
+                    for c in closures:
+                        c.set_ms(ch, mode == "dither")
+                    sun.energy = float(e[ch])
+                    sun_obj.hide_render = sun.energy <= 0.0
+                    t += render_to(scene, out_dir, "blender_%s_%s_seed%d_c%d.exr" % (path, mode, k, ch))
+                times[mode].append(t)
+        return times
     for mode in job.get("volume_modes", ["split", "rgb"]):
         times[mode] = []
         for k in range(seeds):
@@ -733,8 +836,8 @@ def main(argv):
             job["volume_modes"] = ["rgb"]
         if not used_addon:
             info["notes"].append("volume built by compare/blender_render.py itself (%s)" % why)
-            if path == "analytic_volume":
-                _, b = make_analytic_volume(scene, job)
+            if path in ("analytic_volume", "analytic_volume_ms"):
+                _, b = make_analytic_volume(scene, job, path)
             else:
                 _, b = make_vdb_volume(scene, job)
             info["build"]["volume"] = b

@@ -7,7 +7,8 @@
 #   out/main/atmosphere.vdb    the atmosphere volume of the region the camera sees (km)
 #   out/main/analytic.json     the same densities in closed form (the add-on's node tree)
 #   out/compare/               the camera rendered natively and in Blender (sky texture,
-#                              analytic volume, VDB volume): report.md, PNGs, summary.json
+#                              analytic volume, VDB volume, analytic volume with multiple
+#                              scattering): report.md, PNGs, summary.json
 #   out/gallery/               skies from sunrise to orbit (EXR + PNG)
 #   out/chapman|sky|vdb|ms/    the measured speed-vs-accuracy trades (tables, CSV, plots)
 #
@@ -36,7 +37,8 @@ stage "atmosphere volume of the region the camera sees -> $out/main/atmosphere.v
 "$airmass" vdb "$scene" -o "$out/main/atmosphere.vdb" --region view --analytic "$out/main/analytic.json"
 
 stage "render vs native in Blender -> $out/compare"
-"$airmass" compare "$scene" -o "$out/compare" --width "${COMPARE_WIDTH:-64}" --samples "${COMPARE_SAMPLES:-32}"
+"$airmass" compare "$scene" -o "$out/compare" --width "${COMPARE_WIDTH:-64}" --samples "${COMPARE_SAMPLES:-32}" \
+  --paths sky_texture,analytic_volume,analytic_volume_ms,vdb_volume
 
 stage "sky gallery -> $out/gallery"
 bash "$root/scripts/gallery.sh" "$out/gallery" "$build" 1024

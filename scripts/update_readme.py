@@ -35,6 +35,7 @@ IMAGES = {
     "compare/png/sky_texture_side_by_side.png": "compare_sky_texture.png",
     "compare/png/analytic_volume_side_by_side.png": "compare_analytic_volume.png",
     "compare/png/vdb_volume_side_by_side.png": "compare_vdb_volume.png",
+    "compare/png/analytic_volume_ms_side_by_side.png": "compare_analytic_volume_ms.png",
 }
 
 

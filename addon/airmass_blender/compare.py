@@ -52,7 +52,8 @@ from .properties import KM, SettingsError, make_spec, resolve_output_folder
 
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 CLI_ENV = "AIRMASS_CLI"  # overrides the bundled CLI (like AIRMASS_C_LIBRARY for the library)
-PATHS = ("sky_texture", "analytic_volume", "vdb_volume")
+PATHS = ("sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume")
+SPLIT_PATHS = ("analytic_volume", "vdb_volume")  # rendered in the Split / RGB volume modes
 IMAGE_ROLE = "airmass_role"
 IMAGE_PREFIX = "Airmass Compare "
 CANCEL_GRACE_S = 20.0  # the CLI needs ≤ 3 s to stop its Blender; then it is killed
@@ -294,6 +295,8 @@ class _Progress:
                 seeds = int(job["seeds"][path])
                 if path == "sky_texture":
                     n = seeds
+                elif path == "analytic_volume_ms":  # a grey render per channel and mode
+                    n = seeds * 3 * len(job.get("multiple", {}).get("modes", ["dither", "closures"]))
                 else:
                     scatterers = sum(1 for c in job.get("constituents", []) if max(c["scattering_rgb"]) > 0)
                     modes = job.get("volume_modes", ["split", "rgb"])
@@ -355,7 +358,7 @@ class ComparePlan(Plan):
         bad = [p for p in self.paths if p not in PATHS]
         if bad:
             raise SettingsError("Compare with Native: unknown path %s (allowed: %s)" % (bad[0], ", ".join(PATHS)))
-        if any(p != "sky_texture" for p in self.paths) and not self.volume_modes:
+        if any(p in SPLIT_PATHS for p in self.paths) and not self.volume_modes:
             raise SettingsError("Compare with Native: choose a volume render mode (Split and/or RGB)")
         for name, value, lo, hi in (("Width", self.width, 4, 16384), ("Samples", self.samples, 1, 1 << 20),
                                     ("Seeds", self.seeds, 2, 1000)):
@@ -411,7 +414,7 @@ class ComparePlan(Plan):
         scene_file = os.path.join(self.work_dir, "scene.toml")
         with open(scene_file, "w", encoding="utf-8") as f:
             f.write(self.scene_text)
-        natives = 1 + 2 + ("sky_texture" in self.paths) + ("vdb_volume" in self.paths)
+        natives = 1 + 2 + sum(p in self.paths for p in ("sky_texture", "analytic_volume_ms", "vdb_volume"))
         tracker = _Progress(self.work_dir, self.paths, natives)
         lines = queue.Queue()
         output = []

@@ -239,7 +239,10 @@ class AirmassSettings(bpy.types.PropertyGroup):
                ("ANALYTIC_VOLUME", "Analytic Volume",
                 "The node-tree shell volume lit by a Sun lamp, against the renderer-matched native image"),
                ("VDB_VOLUME", "VDB Volume",
-                "The VDB of the box the camera sees (View Distance), against the renderer-matched native image")],
+                "The VDB of the box the camera sees (View Distance), against the renderer-matched native image"),
+               ("ANALYTIC_VOLUME_MS", "Multiple Scattering",
+                "The analytic volume with Cycles' volume and diffuse bounces, against the renderer-matched native "
+                "image with multiple scattering (slower: every order of scattering is path traced)")],
         description="Which ways of bringing the atmosphere into Blender are rendered and compared")
     compare_volume_modes: EnumProperty(
         name="Volume Renders", options={"ENUM_FLAG"}, default={"SPLIT", "RGB"},

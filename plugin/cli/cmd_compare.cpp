@@ -1,7 +1,8 @@
 // `airmass compare`: render one camera natively and in headless Blender along the three ways
 // a user brings Airmass into Blender — the sky texture as World, the analytic node-tree volume
 // and the VDB volume, both lit by a Sun lamp — and write a report of the differences
-// (docs/compare.md).
+// (docs/compare.md). A fourth path, analytic_volume_ms, renders the analytic volume with
+// Cycles' volume and diffuse bounces on: multiple scattering on both sides.
 //
 //   airmass compare (--preset NAME | SCENE.toml) -o DIR [--width W --height H --samples S
 //       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM --step KM
@@ -14,7 +15,8 @@
 //   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
 //      functions), native_hg_spectral.exr (Henyey–Greenstein phases), native_matched.exr
 //      (what Blender renders from the volume export: HG + the renderer RGB model) and, for
-//      the VDB path, native_matched_box.exr (the same medium cut to the exported box);
+//      the VDB path, native_matched_box.exr (the same medium cut to the exported box), for
+//      analytic_volume_ms, native_matched_ms.exr (native_matched + multiple scattering);
 //   2. the inputs Blender needs: sky.exr (render_sky from the camera's altitude, no sun
 //      disc, the default sky grid, ≥ --sky-oversample texels per camera pixel), analytic.json (analytic_density_json, km),
 //      atmosphere.vdb (export_vdb of a box around what the camera sees, km);
@@ -79,7 +81,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-constexpr const char* kPaths[] = {"sky_texture", "analytic_volume", "vdb_volume"};
+constexpr const char* kPaths[] = {"sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume"};
+constexpr const char* kPathList = "sky_texture, analytic_volume, analytic_volume_ms, vdb_volume";
 
 struct CompareOptions {
     std::string scene_path, preset, output;
@@ -90,6 +93,8 @@ struct CompareOptions {
     int sky_samples = 64;   // per seed for the sky texture path (box filter: pixel-area noise only)
     std::string paths = "sky_texture,analytic_volume,vdb_volume";
     std::string volume_modes = "split,rgb";
+    std::string ms_modes = "dither,closures";
+    int ms_bounces = 64;    // Cycles volume and diffuse bounces of analytic_volume_ms
     int view_samples = 64;  // native: samples per constituent along each view ray
     double sky_oversample = 4.0;
     int sky_min_width = 2048;
@@ -228,7 +233,8 @@ json native_entry(const std::string& file, double seconds, const RenderSettings&
            {"seconds", seconds},
            {"renderer_matched", s.renderer_matched},
            {"color_model", s.color == ColorModel::spectral ? "spectral" : "renderer_rgb"},
-           {"view_samples", s.view_samples}};
+           {"view_samples", s.view_samples},
+           {"multiple_scattering", s.multiple_scattering}};
     if (s.medium_box) {
         const auto& b = *s.medium_box;
         j["medium_box_km"] = {b.min_m.x / 1e3, b.min_m.y / 1e3, b.min_m.z / 1e3,
@@ -254,13 +260,14 @@ void run_compare(const CompareOptions& o) {
     range("--sky-oversample", o.sky_oversample, 0.25, 16);
     range("--step", o.step_km, 1e-4, 1e3);
     range("--max-steps", o.max_steps, 2, 65536);
+    range("--ms-bounces", o.ms_bounces, 1, 1024);
     range("--timeout", o.timeout_s, 1, 1e6);
     std::vector<std::string> paths;
     {
         std::stringstream ss(o.paths);
         for (std::string p; std::getline(ss, p, ',');) {
             if (std::find(std::begin(kPaths), std::end(kPaths), p) == std::end(kPaths))
-                throw CliError("compare: --paths: '" + p + "' is not one of sky_texture, analytic_volume, vdb_volume");
+                throw CliError("compare: --paths: '" + p + "' is not one of " + kPathList);
             paths.push_back(p);
         }
         if (paths.empty()) throw CliError("compare: --paths: empty");
@@ -291,8 +298,10 @@ void run_compare(const CompareOptions& o) {
     job["addon_dir"] = addon.string();
     job["use_addon"] = "auto";
     job["blender_threads"] = o.threads;
-    job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"vdb_volume", o.seeds}};
-    job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples}, {"vdb_volume", o.samples}};
+    job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"analytic_volume_ms", o.seeds},
+                    {"vdb_volume", o.seeds}};
+    job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
+                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}};
     job["errors"] = json::object();
     {
         json modes = json::array();
@@ -304,6 +313,20 @@ void run_compare(const CompareOptions& o) {
         }
         if (modes.empty()) throw CliError("compare: --volume-modes: empty");
         job["volume_modes"] = modes;
+    }
+    {
+        // analytic_volume_ms (blender_render.py): per channel one grey render of the whole
+        // medium, its scatterers' phases either dithered into one closure (unbiased) or one
+        // closure each (Cycles 3.4's phase-summing bias, measured).
+        json modes = json::array();
+        std::stringstream ss(o.ms_modes);
+        for (std::string m; std::getline(ss, m, ',');) {
+            if (m != "dither" && m != "closures")
+                throw CliError("compare: --ms-modes: '" + m + "' is not dither or closures");
+            modes.push_back(m);
+        }
+        if (modes.empty()) throw CliError("compare: --ms-modes: empty");
+        job["multiple"] = {{"modes", modes}, {"bounces", o.ms_bounces}};
     }
 
     // ---- native renders -------------------------------------------------------------------
@@ -354,6 +377,11 @@ void run_compare(const CompareOptions& o) {
         s.color = ColorModel::renderer_rgb;
         s.rgb_wavelengths_nm = rgb_wl;
         native("native_matched", s);
+        if (wants("analytic_volume_ms")) {
+            RenderSettings m = s;
+            m.multiple_scattering = true;  // the default tables (multiple_scattering.hpp)
+            native("native_matched_ms", m);
+        }
         if (box) {
             s.medium_box = box;
             native("native_matched_box", s);
@@ -441,7 +469,7 @@ void run_compare(const CompareOptions& o) {
         }
     }
     std::vector<json> constituents;
-    if (wants("analytic_volume") || wants("vdb_volume")) {
+    if (wants("analytic_volume") || wants("analytic_volume_ms") || wants("vdb_volume")) {
         try {
             VdbOptions vo;
             vo.unit = LengthUnit::km;
@@ -458,8 +486,8 @@ void run_compare(const CompareOptions& o) {
             job["constituents"] = constituents;
             job["analytic_json"] = (dir / "analytic.json").string();
         } catch (const std::exception& ex) {
-            job["errors"]["analytic_volume"] = std::string("analytic density: ") + ex.what();
-            job["errors"]["vdb_volume"] = std::string("analytic density: ") + ex.what();
+            for (const char* p : {"analytic_volume", "analytic_volume_ms", "vdb_volume"})
+                job["errors"][p] = std::string("analytic density: ") + ex.what();
         }
     }
     if (wants("vdb_volume") && !job["errors"].contains("vdb_volume")) {
@@ -573,11 +601,19 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--seeds", o->seeds, "Independent Blender renders per volume path (>= 2; noise estimate)")
         ->capture_default_str();
     cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")->capture_default_str();
-    cmd->add_option("--paths", o->paths, "Comma-separated subset of sky_texture,analytic_volume,vdb_volume")
+    cmd->add_option("--paths", o->paths,
+                    "Comma-separated subset of sky_texture,analytic_volume,analytic_volume_ms,vdb_volume "
+                    "(analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces on)")
         ->capture_default_str();
     cmd->add_option("--volume-modes", o->volume_modes,
                     "Blender volume renders: split (grey, one Volume Scatter per render, summed: unbiased in "
                     "Cycles 3.4) and/or rgb (one chromatic render with every closure, as users render)")
+        ->capture_default_str();
+    cmd->add_option("--ms-modes", o->ms_modes,
+                    "analytic_volume_ms renders: dither (one Volume Scatter whose anisotropy is picked per point: "
+                    "unbiased) and/or closures (one Volume Scatter per constituent: Cycles 3.4's phase-summing bias)")
+        ->capture_default_str();
+    cmd->add_option("--ms-bounces", o->ms_bounces, "Cycles volume and diffuse bounces of analytic_volume_ms")
         ->capture_default_str();
     cmd->add_option("--view-samples", o->view_samples, "Native: samples per constituent along each view ray")
         ->capture_default_str();

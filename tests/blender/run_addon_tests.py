@@ -815,15 +815,22 @@ def test_compare_sky_texture():
 
 @test
 def test_compare_analytic_volume():
-    scene, out = _compare_setup("compare_volume", {"ANALYTIC_VOLUME"})
+    scene, out = _compare_setup("compare_volume", {"ANALYTIC_VOLUME", "ANALYTIC_VOLUME_MS"})
     t0 = time.time()
     result = _compare_module().run(bpy.context)
     t1 = time.time()
-    folder, stats, _ = _check_compare_result(scene, out, ["analytic_volume"])
-    check("analytic_volume mean" in result["summary"], "summary %r" % result["summary"])
-    e = stats["analytic_volume"]
-    print("    analytic volume: mean %.3g%%, p95 %.3g%%, noise %.3g%%, %.1f s" % (
-        100 * e["mean_rel_err"], 100 * e["p95_rel_err"], 100 * e["noise_rel"], t1 - t0))
+    folder, stats, _ = _check_compare_result(scene, out, ["analytic_volume", "analytic_volume_ms"])
+    for p in ("analytic_volume", "analytic_volume_ms"):
+        check("%s mean" % p in result["summary"], "summary %r" % result["summary"])
+        e = stats[p]
+        print("    %s: mean %.3g%%, p95 %.3g%%, noise %.3g%%" % (
+            p, 100 * e["mean_rel_err"], 100 * e["p95_rel_err"], 100 * e["noise_rel"]))
+    print("    both paths: %.1f s" % (t1 - t0))
+    # Multiple scattering alone needs no Split/RGB volume mode.
+    scene.airmass.compare_paths = {"ANALYTIC_VOLUME_MS"}
+    scene.airmass.compare_volume_modes = set()
+    plan = _compare_module().ComparePlan(bpy.context)
+    check(plan.paths == ["analytic_volume_ms"], "paths %r" % plan.paths)
 
 
 @test
