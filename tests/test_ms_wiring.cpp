@@ -196,21 +196,29 @@ TEST(MsWiringEval, TableOptionsAreUsedAndCheckedByName) {
     out = eval_cli("--ms-mode lut", status);
     EXPECT_NE(status, 0);
     EXPECT_NE(out.find("--ms-mode"), std::string::npos) << out;
+    out = eval_cli("--ms-table 12,33,24,0", status);
+    EXPECT_NE(status, 0);
+    EXPECT_NE(out.find("table.view_zenith = 33"), std::string::npos) << out;
+    out = eval_cli("--ms-table 12,32,24", status);
+    EXPECT_NE(status, 0);
+    EXPECT_NE(out.find("--ms-table '12,32,24'"), std::string::npos) << out;
 
     // --ms-orders K and --ms-mode isotropic_lut reach the tables: the column equals the
     // tables built here with the same settings.
     const Atmosphere atm = eval_atmosphere();
     const std::size_t nw = kWavelengths.size();
     std::vector<double> mr(nw), mm(nw), mt(nw);
-    for (const auto& [flags, mode, order] :
-         {std::tuple{std::string("--ms-orders 3"), MsMode::orders, 3},
-          std::tuple{std::string("--ms-mode isotropic_lut"), MsMode::isotropic_lut, 0}}) {
+    for (const auto& [flags, mode, order, table] :
+         {std::tuple{std::string("--ms-orders 3"), MsMode::orders, 3, MsTableSize{}},
+          std::tuple{std::string("--ms-mode isotropic_lut"), MsMode::isotropic_lut, 0, MsTableSize{}},
+          std::tuple{std::string("--ms-table 8,16,12,4"), MsMode::orders, 0, MsTableSize{8, 16, 12, 4}}}) {
         out = eval_cli("--ms-columns " + flags, status);
         ASSERT_EQ(status, 0) << out;
         const Csv csv = parse_csv(out);
         MsSettings m;
         m.mode = mode;
         m.max_order = order;
+        m.table = table;
         const MultipleScattering ms = precompute_multiple_scattering(atm, m);
         for (std::size_t k = 0; k < csv.rows.size() / nw; ++k) {
             multiple_scattering_radiance(atm, ms, eval_ray(csv.rows[k * nw]), {mr, mm, mt}, 32);

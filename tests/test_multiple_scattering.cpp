@@ -368,6 +368,32 @@ TEST(MultipleScatteringPresets, HazyAtmosphereAgainstMonteCarlo) {
             << kWavelengths[w];
 }
 
+TEST(MultipleScatteringPresets, FinerTableHalvesTheHazyAureoleError) {
+    // earth-hazy's worst case at the default tables: sun 30° high, looking 10° up toward it
+    // (20° from the sun), where the twice-scattered aerosol aureole is under-resolved: −5 %
+    // measured (100000 paths). `--ms-table 24,32,24,24` (denser altitudes for the 1.2-km
+    // aerosol, 15° azimuth cells) measured −2.5 %; asserted: the finer table is closer by
+    // at least 1.5 % of the total at every wavelength, and within 3σ + 3 %.
+    Atmosphere atm = compile_atmosphere(load_preset("earth-hazy"), kWavelengths);
+    set_constant_irradiance(atm, 1.0);
+    const ViewRay ray = view(0.0, 30.0, 10.0, 0.0);
+    MsSettings fine;
+    fine.table = {24, 32, 24, 24};
+    const Radiance coarse = radiance(atm, precompute_multiple_scattering(atm, MsSettings{}), ray);
+    const Radiance finer = radiance(atm, precompute_multiple_scattering(atm, fine), ray);
+    McSettings mc;
+    mc.paths = 20000;
+    mc.min_order = 2;
+    const McResult ref = monte_carlo_radiance(atm, ray, mc);
+    for (std::size_t w = 0; w < kWavelengths.size(); ++w) {
+        const double total = coarse.single[w] + ref.value[w];
+        const double e_coarse = std::abs(coarse.multiple[w] - ref.value[w]) / total;
+        const double e_fine = std::abs(finer.multiple[w] - ref.value[w]) / total;
+        EXPECT_LT(e_fine, e_coarse - 0.015) << kWavelengths[w];
+        EXPECT_LT(e_fine, (3.0 * ref.standard_error[w]) / total + 0.03) << kWavelengths[w];
+    }
+}
+
 TEST(MultipleScatteringPresets, ExtremeScaleHeightsAndThickAtmospheres) {
     for (double H : {1.0, 100.0, 1e5, 1e7}) {
         Scene scene = load_preset("earth");

@@ -3,7 +3,8 @@
 //   airmass eval (--preset NAME | SCENE.toml) [--wavelengths 680,550,440]
 //       [--solar-irradiance W_M2_NM] [--samples N] [--chapman METHOD] [--sun-disc]
 //       [--no-ground] [--reference] [--threads N]
-//       [--no-multiple] [--ms-mode orders|isotropic_lut] [--ms-orders K] [--ms-samples N] [--ms-columns]
+//       [--no-multiple] [--ms-mode orders|isotropic_lut] [--ms-orders K] [--ms-samples N]
+//       [--ms-table A,V,S,Z] [--ms-columns]
 //   in:  altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg   (stdin; header allowed)
 //   out: altitude_m,view_zenith_deg,sun_zenith_deg,azimuth_deg,wavelength_nm,
 //        transmittance,radiance_rayleigh,radiance_mie,radiance    (one row per wavelength)
@@ -42,6 +43,7 @@
 #include "airmass/single_scattering.hpp"
 #include "commands.hpp"
 #include "csv.hpp"
+#include "ms_options.hpp"
 
 namespace airmass::cli {
 
@@ -58,9 +60,7 @@ struct EvalOptions {
     bool reference = false;
     int threads = 0;
     bool no_multiple = false;
-    std::string ms_mode = std::string(ms_mode_name(MsSettings{}.mode));
-    int ms_orders = MsSettings{}.max_order;
-    int ms_samples = 32;  // as RenderSettings::multiple_samples and SkySettings::multiple_samples
+    MsCliOptions ms;  // --ms-samples 32, as RenderSettings::multiple_samples and SkySettings::multiple_samples
     bool ms_columns = false;
 };
 
@@ -99,14 +99,7 @@ void add_eval_command(CLI::App& app) {
     cmd->add_flag("--reference", opt->reference, "Brute-force nested quadrature instead (slow)");
     cmd->add_option("--threads", opt->threads, "Worker threads (0: all cores)")->capture_default_str();
     cmd->add_flag("--no-multiple", opt->no_multiple, "Single scattering only (no multiple-scattering tables)");
-    cmd->add_option("--ms-mode", opt->ms_mode, "Multiple-scattering tables: orders or isotropic_lut")
-        ->check(CLI::IsMember({"orders", "isotropic_lut"}))
-        ->capture_default_str();
-    cmd->add_option("--ms-orders", opt->ms_orders,
-                    "Highest scattering order K of the orders tables, in [2, 1000]; 0: until an order adds < 0.1 %")
-        ->capture_default_str();
-    cmd->add_option("--ms-samples", opt->ms_samples, "Multiple-scattering quadrature intervals per view ray, [1, 100000]")
-        ->capture_default_str();
+    add_ms_options(cmd, opt->ms);
     cmd->add_flag("--ms-columns", opt->ms_columns,
                   "Append the columns multiple_rayleigh,multiple_mie,multiple (the multiple-scattering parts)");
     cmd->callback([opt] {
@@ -118,11 +111,10 @@ void add_eval_command(CLI::App& app) {
         if (opt->samples < 1 || opt->samples > 1000000)
             throw CliError("eval: --samples " + std::to_string(opt->samples) + ": must be in [1, 1000000]");
         if (opt->threads < 0) throw CliError("eval: --threads must be >= 0");
-        if (!(opt->ms_orders == 0 || (opt->ms_orders >= 2 && opt->ms_orders <= 1000)))
-            throw CliError("eval: --ms-orders " + std::to_string(opt->ms_orders) +
-                           ": must be 0 (automatic) or in [2, 1000]");
-        if (opt->ms_samples < 1 || opt->ms_samples > 100000)
-            throw CliError("eval: --ms-samples " + std::to_string(opt->ms_samples) + ": must be in [1, 100000]");
+        MsSettings ms_settings;
+        int ms_samples = 32;
+        apply_ms_options("eval", opt->ms, ms_settings, ms_samples, 100000);
+        ms_settings.threads = opt->threads;
         const std::vector<double> wavelengths = parse_wavelength_list(opt->wavelengths);
         EvalSettings settings;
         settings.view_samples = opt->samples;
@@ -149,11 +141,7 @@ void add_eval_command(CLI::App& app) {
         // --solar-irradiance, which multiple_scattering_radiance applies per ray).
         std::optional<MultipleScattering> ms;
         if (!opt->no_multiple && !rows.empty()) {
-            MsSettings m;
-            m.mode = opt->ms_mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
-            m.max_order = opt->ms_orders;
-            m.threads = opt->threads;
-            ms = precompute_multiple_scattering(atm, m);
+            ms = precompute_multiple_scattering(atm, ms_settings);
         }
         const auto evaluate = [&](std::size_t k) {
             const auto& v = rows[k].values;
@@ -164,7 +152,7 @@ void add_eval_command(CLI::App& app) {
             if (opt->reference) single_scattering_reference(scene, atm, ray, out);
             else single_scattering(atm, ray, out);
             if (ms) {
-                multiple_scattering_radiance(atm, *ms, ray, {part(MR), part(MM), part(MT)}, opt->ms_samples);
+                multiple_scattering_radiance(atm, *ms, ray, {part(MR), part(MM), part(MT)}, ms_samples);
                 for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += MT[k * nw + w];
             }
         };

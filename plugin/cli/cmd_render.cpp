@@ -5,7 +5,8 @@
 //   airmass render (--preset NAME | SCENE.toml) -o native.exr [--width W --height H
 //       --samples N --chapman METHOD --renderer-matched --rgb-model spectral|renderer
 //       --rgb-wavelengths auto|bruneton|schuler|R,G,B --panoramic --sensor-fit auto|horizontal|vertical
-//       --sun-disc --no-ground --multiple --box X0,Y0,Z0,X1,Y1,Z1 --sun-elevation DEG
+//       --sun-disc --no-ground --multiple [--ms-mode --ms-orders --ms-samples --ms-table]
+//       --box X0,Y0,Z0,X1,Y1,Z1 --sun-elevation DEG
 //       --sun-rotation DEG --threads N --quiet]
 //
 //       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG --max-distance KM
@@ -30,6 +31,7 @@
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
 #include "csv.hpp"
+#include "ms_options.hpp"
 
 namespace airmass::cli::render_detail {
 
@@ -58,6 +60,7 @@ struct RenderOptions {
     bool panoramic = false;
     std::string sensor_fit = "auto";
     bool sun_disc = false, no_ground = false, multiple = false;
+    MsCliOptions ms;
     std::string box;
     std::optional<double> sun_elevation_deg, sun_rotation_deg;
     int threads = 0;
@@ -229,6 +232,7 @@ void add_render_command(CLI::App& app) {
     cmd->add_flag("--sun-disc", o->sun_disc, "Add the solar disc (point-sampled at pixel centres)");
     cmd->add_flag("--no-ground", o->no_ground, "Leave the ground unlit (black)");
     cmd->add_flag("--multiple", o->multiple, "Add multiple scattering (multiple_scattering.hpp tables)");
+    add_ms_options(cmd, o->ms);
     cmd->add_option("--box", o->box,
                     "Cut the medium to this box of the scene frame, km: X0,Y0,Z0,X1,Y1,Z1 (a VDB 'box' export)");
     cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees [-90, 90]");
@@ -256,6 +260,7 @@ void add_render_command(CLI::App& app) {
         settings.sun_disc = o->sun_disc;
         settings.ground = !o->no_ground;
         settings.multiple_scattering = o->multiple;
+        apply_ms_options("render", o->ms, settings.multiple, settings.multiple_samples, 65536);
         if (!o->box.empty()) settings.medium_box = parse_box_km(o->box);
         settings.threads = o->threads;
         try {

@@ -353,8 +353,8 @@ void run_report(const Options& o) {
     bar.finish();
     // Other planets and atmospheres at the default settings, a few cases each.
     std::ostringstream pcsv, pmd;
-    pcsv << "preset,case,wavelength_nm,single,multiple,mc_multiple,mc_standard_error,rel_err_total\n";
-    pmd << "| preset | table (azimuth auto) | precompute wall (CPU), 3 λ | max error | beyond 3σ (max) | multiple / total |\n";
+    pcsv << "preset,table,case,wavelength_nm,single,multiple,mc_multiple,mc_standard_error,rel_err_total\n";
+    pmd << "| preset | table | precompute wall (CPU), 3 λ | max error | beyond 3σ (max) | multiple / total |\n";
     pmd << "|---|---:|---:|---:|---:|---:|\n";
     constexpr Case kPresetCases[] = {{"sun30_zenith", 0, 30, 90, 0},
                                      {"sun5_away_20", 0, 5, 20, 120},
@@ -363,45 +363,63 @@ void run_report(const Options& o) {
     for (const char* name : {"atmosphere-plus", "blender-nishita", "earth-hazy", "mars"}) {
         Atmosphere pa = compile_atmosphere(load_preset(name), kWavelengths);
         set_constant_irradiance(pa, 1.0);
-        MsSettings s;
-        s.threads = o.threads;
-        s.cancel = &cancel;
-        const double cpu0 = process_cpu_seconds();
-        const MultipleScattering ms = precompute_multiple_scattering(pa, s);
-        const double cpu = process_cpu_seconds() - cpu0;
-        double max_err = 0.0, max_unexplained = 0.0, share = 0.0;
-        int n = 0;
+        const std::size_t nw = kWavelengths.size();
+        // The Monte Carlo reference and the exact single scattering, once per case.
+        std::vector<McResult> refs;
+        std::vector<std::vector<double>> singles;
         for (const Case& c : kPresetCases) {
             const ViewRay ray = view_of(c);
-            const std::size_t nw = kWavelengths.size();
-            std::vector<double> T(nw), Lr(nw), Lm(nw), L(nw), mr(nw), mm(nw), mt(nw);
+            std::vector<double> T(nw), Lr(nw), Lm(nw), L(nw);
             single_scattering(pa, ray, {T, Lr, Lm, L});
-            multiple_scattering_radiance(pa, ms, ray, {mr, mm, mt}, 64);
+            singles.push_back(L);
             McSettings mc;
             mc.paths = std::max<std::uint64_t>(o.paths / 4, 100);
             mc.seed = o.seed + 1000;
             mc.min_order = 2;
             mc.threads = o.threads;
             mc.cancel = &cancel;
-            const McResult r = monte_carlo_radiance(pa, ray, mc);
-            for (std::size_t w = 0; w < nw; ++w) {
-                const double total_ref = L[w] + r.value[w], total = L[w] + mt[w];
-                const double e = total / total_ref - 1.0;
-                max_err = std::max(max_err, std::abs(e));
-                max_unexplained =
-                    std::max(max_unexplained, std::max(std::abs(total - total_ref) - 3.0 * r.standard_error[w], 0.0) / total_ref);
-                share += r.value[w] / total_ref;
-                ++n;
-                pcsv << name << "," << c.name << "," << kWavelengths[w] << "," << format_g17(L[w]) << ","
-                     << format_g17(mt[w]) << "," << format_g17(r.value[w]) << "," << format_g17(r.standard_error[w]) << ","
-                     << format_g17(e) << "\n";
-            }
+            refs.push_back(monte_carlo_radiance(pa, ray, mc));
         }
-        const MsTableSize t = ms.grid.size;
-        pmd << "| " << name << " | " << t.altitude << "x" << t.view_zenith << "x" << t.sun_zenith << "x" << t.azimuth
-            << " | " << fmt("%.2f s", ms.precompute_seconds) << fmt(" (%.2f s)", cpu) << " | " << fmt("%.2f %%", 100 * max_err)
-            << " | " << fmt("%.2f %%", 100 * max_unexplained) << " | " << fmt("%.0f %%", 100 * share / n) << " |\n";
-        if (!o.quiet) std::fprintf(stderr, "report ms: preset %-16s max %.2f %%\n", name, 100 * max_err);
+        // The default tables; for the thick forward-scattering atmospheres (automatic azimuth
+        // 12) also the finer table `--ms-table 24,32,24,24` that halves their error.
+        std::vector<MsTableSize> tables{MsTableSize{}};
+        if (ms_automatic_azimuth_nodes(pa) > 6) tables.push_back({24, 32, 24, 24});
+        for (const MsTableSize& table : tables) {
+            MsSettings s;
+            s.table = table;
+            s.threads = o.threads;
+            s.cancel = &cancel;
+            const double cpu0 = process_cpu_seconds();
+            const MultipleScattering ms = precompute_multiple_scattering(pa, s);
+            const double cpu = process_cpu_seconds() - cpu0;
+            double max_err = 0.0, max_unexplained = 0.0, share = 0.0;
+            int n = 0;
+            const MsTableSize t = ms.grid.size;
+            const std::string size = std::to_string(t.altitude) + "x" + std::to_string(t.view_zenith) + "x" +
+                                     std::to_string(t.sun_zenith) + "x" + std::to_string(t.azimuth);
+            for (std::size_t i = 0; i < std::size(kPresetCases); ++i) {
+                const ViewRay ray = view_of(kPresetCases[i]);
+                std::vector<double> mr(nw), mm(nw), mt(nw);
+                multiple_scattering_radiance(pa, ms, ray, {mr, mm, mt}, 64);
+                const McResult& r = refs[i];
+                for (std::size_t w = 0; w < nw; ++w) {
+                    const double total_ref = singles[i][w] + r.value[w], total = singles[i][w] + mt[w];
+                    const double e = total / total_ref - 1.0;
+                    max_err = std::max(max_err, std::abs(e));
+                    max_unexplained = std::max(
+                        max_unexplained, std::max(std::abs(total - total_ref) - 3.0 * r.standard_error[w], 0.0) / total_ref);
+                    share += r.value[w] / total_ref;
+                    ++n;
+                    pcsv << name << "," << size << "," << kPresetCases[i].name << "," << kWavelengths[w] << ","
+                         << format_g17(singles[i][w]) << "," << format_g17(mt[w]) << "," << format_g17(r.value[w]) << ","
+                         << format_g17(r.standard_error[w]) << "," << format_g17(e) << "\n";
+                }
+            }
+            pmd << "| " << name << " | " << size << (table.azimuth == 0 ? " (default)" : " (`--ms-table`)") << " | "
+                << fmt("%.2f s", ms.precompute_seconds) << fmt(" (%.2f s)", cpu) << " | " << fmt("%.2f %%", 100 * max_err)
+                << " | " << fmt("%.2f %%", 100 * max_unexplained) << " | " << fmt("%.0f %%", 100 * share / n) << " |\n";
+            if (!o.quiet) std::fprintf(stderr, "report ms: preset %-16s %s max %.2f %%\n", name, size.c_str(), 100 * max_err);
+        }
     }
     pmd << "\nCases: sun 30° zenith, sun 5° view 20° at 120° from the sun, sun 30° view 10° toward it and 30° "
            "across; Monte Carlo " << std::max<std::uint64_t>(o.paths / 4, 100) << " paths, orders ≥ 2.\n";

@@ -4,7 +4,7 @@
 //   airmass sky (--preset NAME | SCENE.toml) -o sky.exr [--width W --height H --samples N
 //       --chapman METHOD --sun-elevation DEG --sun-rotation DEG --altitude M --no-sun-disc
 //       --basis rgb|spectral --wavelengths SPEC --hemisphere full|upper --threads N --quiet
-//       --no-multiple --ms-mode orders|isotropic_lut --ms-orders K --ms-samples N]
+//       --no-multiple --ms-mode orders|isotropic_lut --ms-orders K --ms-samples N --ms-table A,V,S,Z]
 //
 // The output is written atomically; Ctrl-C stops the render and leaves no file.
 #include <chrono>
@@ -23,6 +23,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
 #include "commands.hpp"
+#include "ms_options.hpp"
 #include "csv.hpp"
 
 namespace airmass::cli {
@@ -44,9 +45,7 @@ struct SkyOptions {
     int grid = -1;
     bool quiet = false;
     bool no_multiple = false;
-    std::string ms_mode = std::string(ms_mode_name(MsSettings{}.mode));
-    int ms_orders = MsSettings{}.max_order;
-    int ms_samples = SkySettings{}.multiple_samples;
+    MsCliOptions ms;
 };
 
 double parse_number(const std::string& text, const std::string& what) {
@@ -169,14 +168,7 @@ void add_sky_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
     cmd->add_flag("--no-multiple", o->no_multiple, "Single scattering only (no multiple-scattering tables)");
-    cmd->add_option("--ms-mode", o->ms_mode, "Multiple-scattering tables: orders or isotropic_lut")
-        ->check(CLI::IsMember({"orders", "isotropic_lut"}))
-        ->capture_default_str();
-    cmd->add_option("--ms-orders", o->ms_orders,
-                    "Highest scattering order K of the orders tables, in [2, 1000]; 0: until an order adds < 0.1 %")
-        ->capture_default_str();
-    cmd->add_option("--ms-samples", o->ms_samples, "Multiple-scattering quadrature intervals per view ray, [1, 100000]")
-        ->capture_default_str();
+    add_ms_options(cmd, o->ms);
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
 
     cmd->callback([o, list_presets] {
@@ -202,15 +194,7 @@ void add_sky_command(CLI::App& app) {
         settings.threads = o->threads;
         settings.grid = o->grid;
         settings.multiple_scattering = !o->no_multiple;
-        settings.multiple.mode = o->ms_mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
-        if (!(o->ms_orders == 0 || (o->ms_orders >= 2 && o->ms_orders <= 1000)))
-            throw CliError("sky: --ms-orders " + std::to_string(o->ms_orders) +
-                           ": must be 0 (automatic) or in [2, 1000]");
-        settings.multiple.max_order = o->ms_orders;
-        if (o->ms_samples < 1 || o->ms_samples > kSkyMaxMultipleSamples)
-            throw CliError("sky: --ms-samples " + std::to_string(o->ms_samples) + ": must be in [1, " +
-                           std::to_string(kSkyMaxMultipleSamples) + "]");
-        settings.multiple_samples = o->ms_samples;
+        apply_ms_options("sky", o->ms, settings.multiple, settings.multiple_samples, kSkyMaxMultipleSamples);
         try {
             validate(settings);
         } catch (const SkyError& e) {
