@@ -81,8 +81,24 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-constexpr const char* kPaths[] = {"sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume"};
-constexpr const char* kPathList = "sky_texture, analytic_volume, analytic_volume_ms, vdb_volume";
+const std::vector<std::string> kPaths = {"sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume"};
+
+// A comma-separated list of names, each one of `allowed`; errors name the option.
+std::vector<std::string> parse_choices(const std::string& text, const std::string& option,
+                                       const std::vector<std::string>& allowed) {
+    std::vector<std::string> out;
+    std::stringstream ss(text);
+    for (std::string v; std::getline(ss, v, ',');) {
+        if (std::find(allowed.begin(), allowed.end(), v) == allowed.end()) {
+            std::string list;
+            for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+            throw CliError("compare: " + option + ": '" + v + "' is not one of " + list);
+        }
+        out.push_back(v);
+    }
+    if (out.empty()) throw CliError("compare: " + option + ": empty");
+    return out;
+}
 
 struct CompareOptions {
     std::string scene_path, preset, output;
@@ -262,16 +278,7 @@ void run_compare(const CompareOptions& o) {
     range("--max-steps", o.max_steps, 2, 65536);
     range("--ms-bounces", o.ms_bounces, 1, 1024);
     range("--timeout", o.timeout_s, 1, 1e6);
-    std::vector<std::string> paths;
-    {
-        std::stringstream ss(o.paths);
-        for (std::string p; std::getline(ss, p, ',');) {
-            if (std::find(std::begin(kPaths), std::end(kPaths), p) == std::end(kPaths))
-                throw CliError("compare: --paths: '" + p + "' is not one of " + kPathList);
-            paths.push_back(p);
-        }
-        if (paths.empty()) throw CliError("compare: --paths: empty");
-    }
+    const std::vector<std::string> paths = parse_choices(o.paths, "--paths", kPaths);
     auto wants = [&](const char* p) { return std::find(paths.begin(), paths.end(), p) != paths.end(); };
     const fs::path scripts = find_scripts_dir(o.scripts);
     const fs::path addon = o.addon.empty() ? scripts.parent_path() / "addon" : fs::path(o.addon);
@@ -303,31 +310,12 @@ void run_compare(const CompareOptions& o) {
     job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
                       {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}};
     job["errors"] = json::object();
-    {
-        json modes = json::array();
-        std::stringstream ss(o.volume_modes);
-        for (std::string m; std::getline(ss, m, ',');) {
-            if (m != "split" && m != "rgb")
-                throw CliError("compare: --volume-modes: '" + m + "' is not split or rgb");
-            modes.push_back(m);
-        }
-        if (modes.empty()) throw CliError("compare: --volume-modes: empty");
-        job["volume_modes"] = modes;
-    }
-    {
-        // analytic_volume_ms (blender_render.py): per channel one grey render of the whole
-        // medium, its scatterers' phases either dithered into one closure (unbiased) or one
-        // closure each (Cycles 3.4's phase-summing bias, measured).
-        json modes = json::array();
-        std::stringstream ss(o.ms_modes);
-        for (std::string m; std::getline(ss, m, ',');) {
-            if (m != "dither" && m != "closures")
-                throw CliError("compare: --ms-modes: '" + m + "' is not dither or closures");
-            modes.push_back(m);
-        }
-        if (modes.empty()) throw CliError("compare: --ms-modes: empty");
-        job["multiple"] = {{"modes", modes}, {"bounces", o.ms_bounces}};
-    }
+    job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb"});
+    // analytic_volume_ms (blender_render.py): per channel one grey render of the whole medium,
+    // its scatterers' phases either dithered into one closure (unbiased) or one closure each
+    // (Cycles 3.4's phase-summing bias, measured).
+    job["multiple"] = {{"modes", parse_choices(o.ms_modes, "--ms-modes", {"dither", "closures"})},
+                       {"bounces", o.ms_bounces}};
 
     // ---- native renders -------------------------------------------------------------------
     RenderSettings base;
