@@ -451,14 +451,18 @@ class Closures:
     With multiple scattering (analytic_volume_ms) splitting by scatterer is wrong — light
     scattered by one constituent is scattered again by the other — so each render holds the
     whole medium at one channel, grey:
-      set_ms_closures(c):   S_j = σs_j,c for every j, A_j = σa_j,c — one closure per scatterer,
+      set_ms(c, False):     S_j = σs_j,c for every j, A_j = σa_j,c — one closure per scatterer,
                             which Cycles 3.4 renders biased (the phase-summing bias, measured);
-      set_ms_dither(c):     every S_j = 0; the single closure D = Volume Scatter of density
+      set_ms(c, True):      every S_j = 0; the single closure D = Volume Scatter of density
                             Σ_j σs_j,c ρ_j whose anisotropy is g_j with probability
                             σs_j,c ρ_j / Σ σs, picked by a White Noise texture of the shading
                             position (a hash of the float bits: independent at every ray-marching
                             point). In expectation the phase at each point is Σ_j σs_j p_j / σs,
                             the mixture, with one closure: unbiased.
+      set_rgb_dither():     the chromatic volume with D alone for scattering (the render users
+                            would make with such a material): density Σ_j m_j ρ_j (m_j = max_c
+                            σs_j,c), g_j and colour σs_j / m_j with probability m_j ρ_j / Σ m ρ —
+                            per channel c the expected weight × phase is Σ_j σs_j,c ρ_j p_j.
     """
 
     def __init__(self):
@@ -466,7 +470,7 @@ class Closures:
         self.absorb = {}    # name -> (node, k)
         self.stand_in = {}  # name -> (node, k)
         self.constituents = {}
-        self.dither = None  # (Volume Scatter node, {name: Math node whose input 1 is σs_j,c})
+        self.dither = None  # Dither: the single dithered Volume Scatter
 
     def scatterers(self):
         return [n for n in self.scatter]
@@ -477,7 +481,24 @@ class Closures:
 
     def _dither_off(self):
         if self.dither:
-            self.dither[0].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+            self.dither.set(0.0, {}, {})
+
+    def set_rgb_dither(self):
+        if not self.dither:
+            raise RuntimeError("the material has no dithered scattering closure")
+        weights, colours = {}, {}
+        for name, c in self.constituents.items():
+            if name in self.scatter:
+                s = c["scattering_rgb"]
+                m = max(s)
+                weights[name], colours[name] = m, tuple(v / m for v in s)
+                self.scatter[name].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+                node, k = self.stand_in[name]
+                self._absorb(node, k, (0.0,) * 3)
+            if name in self.absorb:
+                node, k = self.absorb[name]
+                self._absorb(node, k, c["absorption_rgb"])
+        self.dither.set(1.0, weights, colours)
 
     def set_rgb(self):
         self._dither_off()
@@ -519,42 +540,63 @@ class Closures:
                 node, k = self.absorb[name]
                 self._absorb(node, k, (c["absorption_rgb"][channel],) * 3)
         if self.dither:
-            scatter, weights = self.dither
-            scatter.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0) if dither else (0.0, 0.0, 0.0, 1.0)
-            for name, node in weights.items():
-                node.inputs[1].default_value = float(self.constituents[name]["scattering_rgb"][channel])
+            self.dither.set(1.0 if dither else 0.0,
+                            {n: float(c["scattering_rgb"][channel]) for n, c in self.constituents.items()
+                             if n in self.scatter}, {})
 
 
-def dithered_scatter(nodes, scatterers, closures):
-    """One Volume Scatter for several scatterers (Closures.set_ms): density Σ_j w_j ρ_j and
-    anisotropy g_j where u·Σ w ρ falls in scatterer j's share, u = White Noise(position)."""
-    weights, d = {}, []
-    for c, rho in scatterers:
-        w = nodes.n.new("ShaderNodeMath")
-        w.operation = "MULTIPLY"
-        nodes.l.new(rho, w.inputs[0])
-        w.inputs[1].default_value = 0.0
-        weights[c["name"]] = w
-        d.append(w.outputs[0])
-    total = d[0]
-    for x in d[1:]:
-        total = nodes.math("ADD", total, x)
-    noise = nodes.n.new("ShaderNodeTexWhiteNoise")
-    noise.noise_dimensions = "3D"
-    nodes.l.new(nodes.n.new("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
-    u_total = nodes.math("MULTIPLY", noise.outputs["Value"], total)
-    g = nodes.math("ADD", nodes.math("MULTIPLY", total, 0.0), float(scatterers[0][0]["g_hg"]))
-    cum = d[0]
-    for j in range(1, len(scatterers)):
-        step = float(scatterers[j][0]["g_hg"]) - float(scatterers[j - 1][0]["g_hg"])
-        g = nodes.math("ADD", g, nodes.math("MULTIPLY", nodes.math("GREATER_THAN", u_total, cum), step))
-        cum = nodes.math("ADD", cum, d[j])
-    sc = nodes.n.new("ShaderNodeVolumeScatter")
-    sc.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    nodes.l.new(total, sc.inputs["Density"])
-    nodes.l.new(g, sc.inputs["Anisotropy"])
-    closures.dither = (sc, weights)
-    return sc.outputs[0]
+class Dither:
+    """One Volume Scatter standing for several scatterers (Closures): density gain · Σ_j w_j ρ_j;
+    where u · Σ w ρ (u = White Noise of the position) falls in scatterer j's share, anisotropy
+    g_j and colour k_j. set(gain, {name: w_j}, {name: k_j}); colours not given are white."""
+
+    def __init__(self, nodes, scatterers):
+        self.weights, self.colours = {}, {}
+        d = []
+        for c, rho in scatterers:
+            w = nodes.n.new("ShaderNodeMath")
+            w.operation = "MULTIPLY"
+            nodes.l.new(rho, w.inputs[0])
+            w.inputs[1].default_value = 0.0
+            self.weights[c["name"]] = w
+            d.append(w.outputs[0])
+            self.colours[c["name"]] = nodes.n.new("ShaderNodeRGB")
+        total = d[0]
+        for x in d[1:]:
+            total = nodes.math("ADD", total, x)
+        noise = nodes.n.new("ShaderNodeTexWhiteNoise")
+        noise.noise_dimensions = "3D"
+        nodes.l.new(nodes.n.new("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
+        u_total = nodes.math("MULTIPLY", noise.outputs["Value"], total)
+        g = nodes.math("ADD", nodes.math("MULTIPLY", total, 0.0), float(scatterers[0][0]["g_hg"]))
+        colour = self.colours[scatterers[0][0]["name"]].outputs[0]
+        cum = d[0]
+        for j in range(1, len(scatterers)):
+            chosen = nodes.math("GREATER_THAN", u_total, cum)  # scatterer j or a later one
+            step = float(scatterers[j][0]["g_hg"]) - float(scatterers[j - 1][0]["g_hg"])
+            g = nodes.math("ADD", g, nodes.math("MULTIPLY", chosen, step))
+            mix = nodes.n.new("ShaderNodeMixRGB")
+            mix.blend_type = "MIX"
+            nodes.l.new(chosen, mix.inputs["Fac"])
+            nodes.l.new(colour, mix.inputs["Color1"])
+            nodes.l.new(self.colours[scatterers[j][0]["name"]].outputs[0], mix.inputs["Color2"])
+            colour = mix.outputs["Color"]
+            cum = nodes.math("ADD", cum, d[j])
+        self.gain = nodes.n.new("ShaderNodeMath")
+        self.gain.operation = "MULTIPLY"
+        nodes.l.new(total, self.gain.inputs[0])
+        self.scatter = nodes.n.new("ShaderNodeVolumeScatter")
+        nodes.l.new(colour, self.scatter.inputs["Color"])
+        nodes.l.new(self.gain.outputs[0], self.scatter.inputs["Density"])
+        nodes.l.new(g, self.scatter.inputs["Anisotropy"])
+        self.set(0.0, {}, {})
+
+    def set(self, gain, weights, colours):
+        self.gain.inputs[1].default_value = float(gain)
+        for name, node in self.weights.items():
+            node.inputs[1].default_value = float(weights.get(name, 0.0))
+        for name, node in self.colours.items():
+            node.outputs[0].default_value = tuple(colours.get(name, (1.0, 1.0, 1.0))) + (1.0,)
 
 
 def volume_closures(nodes, constituent, density, closures):
@@ -583,7 +625,7 @@ def volume_closures(nodes, constituent, density, closures):
     return out
 
 
-def volume_material(name, job, density_of, dither=False):
+def volume_material(name, job, density_of):
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     nt = mat.node_tree
@@ -601,8 +643,9 @@ def volume_material(name, job, density_of, dither=False):
             scatterers.append((c, rho))
     if not shaders:
         raise RuntimeError("no constituent scatters or absorbs: nothing to render")
-    if dither and scatterers:
-        shaders.append(dithered_scatter(nodes, scatterers, closures))
+    if scatterers:
+        closures.dither = Dither(nodes, scatterers)
+        shaders.append(closures.dither.scatter.outputs[0])
     closures.set_rgb()
     acc = shaders[0]
     for sh in shaders[1:]:
@@ -643,7 +686,7 @@ def make_analytic_volume(scene, job, path):
         h = altitude_socket(nodes, planet["center"], R)
         return profile_socket(nodes, h, c["profile"], top_alt)
 
-    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of, dither=path == "analytic_volume_ms")
+    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of)
     obj.data.materials.append(mat)
     base = 0.1 * 2.0 * (top + margin)  # 0.1 × mean bounding-box size
     step = set_step(scene, mat, base, float(job["volume"]["step_km"]), job["volume"]["max_steps"])
@@ -776,14 +819,17 @@ def render_seeds(scene, job, path, out_dir, sun_obj):
         times[mode] = []
         for k in range(seeds):
             scene.cycles.seed = base + k
-            if mode == "rgb":
+            if mode in ("rgb", "rgb_dither"):
                 for c in closures:
-                    c.set_rgb()
+                    if mode == "rgb":
+                        c.set_rgb()
+                    else:
+                        c.set_rgb_dither()
                 set_ground_lit(True)
                 sun.color = tuple(job["sun"]["color"])
                 sun.energy = float(job["sun"]["strength"])
                 sun_obj.hide_render = sun.energy <= 0.0
-                times[mode].append(render_to(scene, out_dir, "blender_%s_rgb_seed%d.exr" % (path, k)))
+                times[mode].append(render_to(scene, out_dir, "blender_%s_%s_seed%d.exr" % (path, mode, k)))
             else:
                 t = 0.0
                 for ch in range(3):
@@ -832,6 +878,9 @@ def main(argv):
                 why = "add-on builder failed: %s" % e
                 info["notes"].append(why)
         if used_addon and not CLOSURES:
+            if path == "analytic_volume_ms":
+                raise RuntimeError("the add-on's material exposes no closures: the grey per-channel renders of "
+                                   "multiple scattering cannot be made")
             info["notes"].append("the add-on's material exposes no closures: only the rgb mode is rendered")
             job["volume_modes"] = ["rgb"]
         if not used_addon:

@@ -300,7 +300,8 @@ class _Progress:
                 else:
                     scatterers = sum(1 for c in job.get("constituents", []) if max(c["scattering_rgb"]) > 0)
                     modes = job.get("volume_modes", ["split", "rgb"])
-                    n = seeds * ((3 * scatterers if "split" in modes else 0) + (1 if "rgb" in modes else 0))
+                    n = seeds * ((3 * scatterers if "split" in modes else 0) + (1 if "rgb" in modes else 0) +
+                                 (1 if "rgb_dither" in modes else 0))
                 self.expected[path] = max(1, n)
             except (OSError, ValueError, KeyError):
                 return None
@@ -352,7 +353,7 @@ class ComparePlan(Plan):
         self.seeds = int(seeds if seeds is not None else s.compare_seeds)
         self.paths = list(paths) if paths is not None else _flag_paths(s.compare_paths)
         self.volume_modes = list(volume_modes) if volume_modes is not None else \
-            [m.lower() for m in ("SPLIT", "RGB") if m in s.compare_volume_modes]
+            [m.lower() for m in ("SPLIT", "RGB", "RGB_DITHER") if m in s.compare_volume_modes]
         if not self.paths:
             raise SettingsError("Compare with Native: no path chosen (tick Sky Texture, Analytic Volume or VDB Volume)")
         bad = [p for p in self.paths if p not in PATHS]

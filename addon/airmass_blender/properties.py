@@ -248,7 +248,10 @@ class AirmassSettings(bpy.types.PropertyGroup):
         name="Volume Renders", options={"ENUM_FLAG"}, default={"SPLIT", "RGB"},
         items=[("SPLIT", "Split", "One grey render per colour channel and scattering constituent, summed: "
                                   "unbiased in Cycles 3.4 (docs/compare.md)"),
-               ("RGB", "RGB", "One chromatic render, as users render the volume: shows Cycles 3.4's colour bias")],
+               ("RGB", "RGB", "One chromatic render, as users render the volume: shows Cycles 3.4's colour bias"),
+               ("RGB_DITHER", "RGB Dithered",
+                "One chromatic render with the constituents' phases dithered into one Volume Scatter: Cycles 3.4's "
+                "colour bias without its phase-summing bias")],
         description="How the volume paths are rendered")
     compare_report: StringProperty(
         name="Report", subtype="FILE_PATH", default="",

@@ -108,7 +108,7 @@ struct CompareOptions {
     int seeds = 4;          // independent Blender renders per volume path (noise estimate)
     int sky_samples = 64;   // per seed for the sky texture path (box filter: pixel-area noise only)
     std::string paths = "sky_texture,analytic_volume,vdb_volume";
-    std::string volume_modes = "split,rgb";
+    std::string volume_modes = "split,rgb,rgb_dither";
     std::string ms_modes = "dither,closures";
     int ms_bounces = 64;    // Cycles volume and diffuse bounces of analytic_volume_ms
     int view_samples = 64;  // native: samples per constituent along each view ray
@@ -310,7 +310,7 @@ void run_compare(const CompareOptions& o) {
     job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
                       {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}};
     job["errors"] = json::object();
-    job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb"});
+    job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb", "rgb_dither"});
     // analytic_volume_ms (blender_render.py): per channel one grey render of the whole medium,
     // its scatterers' phases either dithered into one closure (unbiased) or one closure each
     // (Cycles 3.4's phase-summing bias, measured).
@@ -595,7 +595,8 @@ void add_compare_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--volume-modes", o->volume_modes,
                     "Blender volume renders: split (grey, one Volume Scatter per render, summed: unbiased in "
-                    "Cycles 3.4) and/or rgb (one chromatic render with every closure, as users render)")
+                    "Cycles 3.4), rgb (one chromatic render with every closure, as users render), rgb_dither (one "
+                    "chromatic render, the scatterers' phases dithered into one Volume Scatter)")
         ->capture_default_str();
     cmd->add_option("--ms-modes", o->ms_modes,
                     "analytic_volume_ms renders: dither (one Volume Scatter whose anisotropy is picked per point: "

@@ -300,10 +300,13 @@ def test_sun_below_the_horizon_in_every_path(airmass_bin, tmp_path):
     scene = scene_file(tmp_path, "twilight", ((0.0, 0.0, 2.0), (1.0, 0.0, 0.3), (0.0, 0.0, 1.0), 60.0, 16, 9),
                        sun=(-4.0, 90.0))
     out = tmp_path / "twilight"
-    summary = compare(airmass_bin, scene, out, "--samples", 16, "--seeds", 2, "--step", 2, "--volume-modes", "split",
-                      "--max-distance", 20, "--paths", "sky_texture,analytic_volume,analytic_volume_ms,vdb_volume",
+    summary = compare(airmass_bin, scene, out, "--samples", 16, "--seeds", 2, "--step", 2,
+                      "--volume-modes", "split,rgb,rgb_dither", "--max-distance", 20, "--paths", "sky_texture,analytic_volume,analytic_volume_ms,vdb_volume",
                       "--ms-modes", "dither")
     assert set(summary["paths"]) == {"sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume"}
+    for path in ("analytic_volume", "vdb_volume"):
+        for k in ("rgb_render", "rgb_dither_render"):
+            assert math.isfinite(summary["paths"][path][k]["mean_rel_err"]), (path, k)
     for path, e in summary["paths"].items():
         assert "error" not in e, (path, e.get("error"))
         for k in SUMMARY_KEYS:
