@@ -156,6 +156,7 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         s = context.scene.airmass
         layout.prop(s, "length_unit")
         layout.prop(s, "step_km")
+        layout.prop(s, "phase_mixing")
         layout.prop(s, "add_ground")
         layout.prop(s, "set_units")
         col = layout.column(heading="VDB")

@@ -163,9 +163,64 @@ def profile_socket(nb, h, profile, top_altitude):
     return total if total is not None else 0.0
 
 
-def build_material(name, constituents, density_for, anisotropy_version=None):
+def dithered_scatter(nb, scatterers):
+    """One Volume Scatter standing for several scatterers with different Henyey–Greenstein g.
+
+    Cycles 3.4 sums the phase functions of several Volume Scatter closures without their
+    weights (measured +18 % on a clear sky, docs/compare.md). Here, at every shading point,
+    scatterer j is chosen with probability P_j = m_j ρ_j / Σ m ρ (m_j = max_c σs_j,c) by a
+    White Noise texture of the position (a hash of its float bits: a fresh draw at every
+    ray-marching point), and the closure takes its anisotropy g_j and colour σs_j / m_j with
+    density Σ m ρ. Per channel c the expected weight × phase is Σ_j P_j (σs_j,c/m_j) Σmρ p_j
+    = Σ_j σs_j,c ρ_j p_j: the mixture, with a single closure.
+
+    `scatterers`: [(name, σs rgb, g, density socket or float)]. Node names: "<name> scatter
+    weight" (ρ_j × m_j), "<name> scatter colour" (σs_j / m_j), "scatter (dithered)"."""
+    shares, colours = [], []
+    for name, sigma_s, g, density in scatterers:
+        m = max(sigma_s)
+        w = nb.node("ShaderNodeMath", operation="MULTIPLY", name="%s scatter weight" % name,
+                    label="%s scatter weight" % name)
+        nb._feed(w.inputs[0], density)
+        w.inputs[1].default_value = m
+        w["airmass_sigma_s"] = list(sigma_s)
+        shares.append(w.outputs[0])
+        rgb = nb.node("ShaderNodeRGB", name="%s scatter colour" % name, label="%s scatter colour" % name)
+        rgb.outputs[0].default_value = (*[x / m for x in sigma_s], 1.0)
+        colours.append(rgb.outputs[0])
+    total = shares[0]
+    for x in shares[1:]:
+        total = nb.math("ADD", total, x)
+    noise = nb.node("ShaderNodeTexWhiteNoise", noise_dimensions="3D", name="scatterer choice",
+                    label="scatterer choice")
+    nb.tree.links.new(nb.node("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
+    u_total = nb.math("MULTIPLY", noise.outputs["Value"], total)
+    g = nb.math("ADD", nb.math("MULTIPLY", total, 0.0), float(scatterers[0][2]))
+    colour = colours[0]
+    cum = shares[0]
+    for j in range(1, len(scatterers)):
+        chosen = nb.math("GREATER_THAN", u_total, cum)  # scatterer j or a later one
+        g = nb.math("MULTIPLY_ADD", chosen, float(scatterers[j][2]) - float(scatterers[j - 1][2]), g)
+        mix = nb.node("ShaderNodeMixRGB", blend_type="MIX")
+        nb.tree.links.new(chosen, mix.inputs["Fac"])
+        nb.tree.links.new(colour, mix.inputs["Color1"])
+        nb.tree.links.new(colours[j], mix.inputs["Color2"])
+        colour = mix.outputs["Color"]
+        cum = nb.math("ADD", cum, shares[j])
+    node = nb.node("ShaderNodeVolumeScatter", name="scatter (dithered)", label="scatter (dithered)")
+    nb.tree.links.new(colour, node.inputs["Color"])
+    nb.tree.links.new(total, node.inputs["Density"])
+    nb.tree.links.new(g, node.inputs["Anisotropy"])
+    return node
+
+
+def build_material(name, constituents, density_for, anisotropy_version=None, phase_mixing="DITHER"):
     """A volume material from constituent descriptions (name, scattering_rgb, absorption_rgb,
-    phase, g) and `density_for(nb, name)` → a socket (or float) of the relative density."""
+    phase, g) and `density_for(nb, name)` → a socket (or float) of the relative density.
+
+    phase_mixing "DITHER": in Blender < 4.3 (Henyey–Greenstein only), scatterers of different
+    g share one dithered Volume Scatter (dithered_scatter); "SEPARATE", or 4.3+ with its own
+    phase types: one Volume Scatter per constituent."""
     mat = bpy.data.materials.new(name)
     try:
         mat.use_nodes = True
@@ -176,13 +231,20 @@ def build_material(name, constituents, density_for, anisotropy_version=None):
         out.location = (900, 300)
         version = anisotropy_version or bpy.app.version
         shaders = []
+        hg = [(c["name"], [max(0.0, float(x)) for x in c["scattering_rgb"]],
+               hg_anisotropy(c.get("phase", "isotropic"), float(c.get("g", 0.0)))) for c in constituents]
+        hg = [x for x in hg if max(x[1]) > 0.0]
+        dither = (phase_mixing == "DITHER" and version < (4, 3, 0) and len({x[2] for x in hg}) > 1)
+        dithered = []
         for c in constituents:
             sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
             sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
             if max(sigma_s) <= 0.0 and max(sigma_a) <= 0.0:
                 continue
             density = density_for(nb, c["name"])
-            if max(sigma_s) > 0.0:
+            if max(sigma_s) > 0.0 and dither:
+                dithered.append((c["name"], sigma_s, next(x[2] for x in hg if x[0] == c["name"]), density))
+            elif max(sigma_s) > 0.0:
                 ds = max(sigma_s)
                 node = nb.node("ShaderNodeVolumeScatter", name="%s scatter" % c["name"], label="%s scatter" % c["name"])
                 node.inputs["Color"].default_value = (*[x / ds for x in sigma_s], 1.0)
@@ -213,6 +275,8 @@ def build_material(name, constituents, density_for, anisotropy_version=None):
                          else density * da)
                 node["airmass_sigma_a"] = sigma_a
                 shaders.append(node.outputs[0])
+        if dithered:
+            shaders.append(dithered_scatter(nb, dithered).outputs[0])
         if not shaders:
             raise SettingsError("the scene has no constituent that scatters or absorbs light")
         total = shaders[0]
@@ -546,7 +610,7 @@ class AnalyticPlan(Plan):
                 c = next(c for c in constituents if c["name"] == name)
                 return nb.math("MULTIPLY", profile_socket(nb, nb.h, c["profile"], top_alt), nb.mask)
 
-            mat = created.add(build_material(VOLUME_NAME, constituents, density_for))
+            mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
             mat[ROLE] = "atmosphere"
             axis, theta = view_cap(context, s, description, self.unit_m)
             verts, faces = shell_geometry(center, axis, R * (1.0 - 1e-4), _circumscribe(top, theta), theta)
@@ -701,7 +765,7 @@ class VdbPlan(Plan):
                 attr = nb.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=name)
                 return attr.outputs["Fac"]
 
-            mat = created.add(build_material(VOLUME_NAME, constituents, density_for))
+            mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
             mat[ROLE] = "atmosphere"
             new = []
             for i, vol in enumerate(volumes):

@@ -193,6 +193,19 @@ def evaluate_socket(socket, position, cache=None):
     if t == "ShaderNodeTexCoord":
         check(socket.name == "Object", "unexpected coordinate output %s" % socket.name)
         val = tuple(position)
+    elif t == "ShaderNodeNewGeometry":
+        check(socket.name == "Position", "unexpected geometry output %s" % socket.name)
+        val = tuple(position)
+    elif t == "ShaderNodeTexWhiteNoise":
+        # Cycles' hash of the position; here the caller's draw u in [0, 1), cache["white noise"].
+        check(socket.name == "Value", "unexpected white noise output %s" % socket.name)
+        val = cache["white noise"]
+    elif t == "ShaderNodeRGB":
+        val = tuple(socket.default_value)
+    elif t == "ShaderNodeMixRGB":
+        check(node.blend_type == "MIX" and not node.use_clamp, "unexpected mix %s" % node.blend_type)
+        f, c1, c2 = inp(0), inp(1), inp(2)
+        val = tuple(a + f * (b - a) for a, b in zip(c1, c2))
     elif t == "ShaderNodeVectorMath":
         a, b = inp(0), inp(1)
         check(node.operation == "DOT_PRODUCT", "unexpected vector op %s" % node.operation)
@@ -378,6 +391,68 @@ def _scatter_nodes(mat):
                                                                       "ShaderNodeVolumeAbsorption")}
 
 
+def _scattering_rgb(mat, name):
+    """σs of a constituent: its own Volume Scatter, or its share of the dithered one."""
+    nodes = mat.node_tree.nodes
+    if nodes.get("%s scatter" % name) is not None:
+        return _coefficient_rgb(nodes["%s scatter" % name])
+    weight, colour = nodes["%s scatter weight" % name], nodes["%s scatter colour" % name]
+    m = weight.inputs[1].default_value
+    return [colour.outputs[0].default_value[i] * m for i in range(3)]
+
+
+def _density_source(mat, name):
+    """The socket of a constituent's relative density ρ (before its coefficient)."""
+    nodes = mat.node_tree.nodes
+    weight = nodes.get("%s scatter weight" % name)
+    if weight is not None:
+        return weight.inputs[0].links[0].from_socket
+    node = nodes.get("%s scatter" % name) or nodes.get("%s absorption" % name)
+    return node.inputs["Density"].links[0].from_node.inputs[0].links[0].from_socket  # ρ × D
+
+
+def henyey_greenstein(g, cos_theta):
+    return (1.0 - g * g) / (4.0 * math.pi * (1.0 + g * g - 2.0 * g * cos_theta) ** 1.5)
+
+
+def check_dithered_mixture(mat, constituents, points):
+    """The dithered Volume Scatter, averaged over the White Noise draw u, equals the sum of
+    the constituents' own closures: per channel E_u[colour·density·HG(g(u))] = Σ σs_j ρ_j HG(g_j)."""
+    node = mat.node_tree.nodes["scatter (dithered)"]
+    sockets = {k: node.inputs[k].links[0].from_socket for k in ("Color", "Density", "Anisotropy")}
+    n = 4000
+    for p in points:
+        for mu in (-0.6, 0.2, 0.97):
+            mean = [0.0, 0.0, 0.0]
+            for k in range(n):
+                cache = {"white noise": (k + 0.5) / n}
+                col = evaluate_socket(sockets["Color"], p, cache)
+                dens = evaluate_socket(sockets["Density"], p, cache)
+                ph = henyey_greenstein(evaluate_socket(sockets["Anisotropy"], p, cache), mu)
+                for c in range(3):
+                    mean[c] += col[c] * dens * ph / n
+            want = [0.0, 0.0, 0.0]
+            for c in constituents:
+                if max(c["scattering_rgb"]) <= 0:
+                    continue
+                rho = evaluate_socket(_density_source(mat, c["name"]), p, {})
+                ph = henyey_greenstein(hg_g(c), mu)
+                for i in range(3):
+                    want[i] += c["scattering_rgb"][i] * rho * ph
+            for i in range(3):
+                # the draw's grid puts each share's edge within 1/n: relative error ≤ 2/n
+                close(mean[i], want[i], rel=2e-3, abs_=1e-15, what="dithered mixture ch%d at %s, μ=%g" % (i, p, mu))
+
+
+def hg_g(c):
+    phase, g = c.get("phase", "isotropic"), float(c.get("g", 0.0))
+    if phase == "henyey_greenstein":
+        return g
+    if phase == "cornette_shanks":
+        return 3.0 * g * (4.0 + g * g) / (5.0 * (2.0 + g * g))
+    return 0.0
+
+
 def _coefficient_rgb(node):
     col = node.inputs["Color"].default_value
     dens = node.inputs["Density"]
@@ -418,32 +493,56 @@ def test_analytic_volume():
     nodes = _scatter_nodes(mat)
     for c in desc["constituents"]:
         if max(c["scattering_rgb"]) > 0:
-            got = _coefficient_rgb(nodes["%s scatter" % c["name"]])
+            got = _scattering_rgb(mat, c["name"])
             for i in range(3):
                 close(got[i], c["scattering_rgb"][i], rel=1e-6, what="%s σs[%d]" % (c["name"], i))
         if max(c["absorption_rgb"]) > 0:
             got = _coefficient_rgb(nodes["%s absorption" % c["name"]])
             for i in range(3):
                 close(got[i], c["absorption_rgb"][i], rel=1e-5, abs_=1e-12, what="%s σa[%d]" % (c["name"], i))
-    g_mie = nodes["mie scatter"].inputs["Anisotropy"].default_value
-    close(g_mie, 3 * 0.8 * (4 + 0.64) / (5 * (2 + 0.64)), rel=1e-6, what="Cornette–Shanks mean cosine")
-    close(nodes["rayleigh scatter"].inputs["Anisotropy"].default_value, 0.0, abs_=1e-12, what="Rayleigh g")
-    # Densities: evaluate the node graph at points of known altitude (independent profiles).
+    # Blender 3.4: the Rayleigh (g = 0) and Cornette–Shanks aerosol phases share one dithered
+    # Volume Scatter (Phase Mixing, the default); its mean over the draw is the two closures'
+    # sum, with Cornette–Shanks as Henyey–Greenstein of the same mean cosine.
+    check(s.phase_mixing == "DITHER" and "scatter (dithered)" in mat.node_tree.nodes, "dithered scatter missing")
+    check(not any(n.bl_idname == "ShaderNodeVolumeScatter" and n.name != "scatter (dithered)"
+                  for n in mat.node_tree.nodes), "a second Volume Scatter next to the dithered one")
+    close(hg_g({"phase": "cornette_shanks", "g": 0.8}), 3 * 0.8 * (4 + 0.64) / (5 * (2 + 0.64)), rel=1e-12,
+          what="Cornette–Shanks mean cosine")
     R = EARTH_R_KM
+    check_dithered_mixture(mat, desc["constituents"],
+                           [tuple(d[i] * (R + h) - (R if i == 2 else 0.0) for i in range(3))
+                            for h, d in ((0.3, (0.0, 0.0, 1.0)), (2.0, (0.6, 0.0, 0.8)), (14.0, (0.0, -1.0, 0.0)))])
+    # Densities: evaluate the node graph at points of known altitude (independent profiles).
     for name, rho in EARTH_PROFILES.items():
-        dens_socket = nodes.get("%s scatter" % name) or nodes.get("%s absorption" % name)
-        mul = dens_socket.inputs["Density"].links[0].from_node  # ρ × D
+        src = _density_source(mat, name)
         for h in (0.0005, 0.3, 1.0, 5.0, 12.0, 25.0, 33.3, 59.9):
             for direction in ((0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.0, -1.0, 0.0)):
                 # The point at altitude h in `direction` from the planet centre (0, 0, −R).
                 p = tuple(direction[i] * (R + h) - (R if i == 2 else 0.0) for i in range(3))
-                got = evaluate_socket(mul.inputs[0].links[0].from_socket, p)
+                got = evaluate_socket(src, p)
                 # Node constants are float32 (relative 6e-8); 1e-6 leaves room for the
                 # exponent's amplification (|h/H| ≤ 50) and nothing for a wrong formula.
                 close(got, rho(h), rel=1e-6, abs_=1e-9, what="%s density at h=%g km" % (name, h))
         for h in (60.5, -0.2):  # above the top and below the ground: 0
             p = (0.0, 0.0, h)
-            check(evaluate_socket(mul.inputs[0].links[0].from_socket, p) == 0.0, "%s not 0 at h=%g" % (name, h))
+            check(evaluate_socket(src, p) == 0.0, "%s not 0 at h=%g" % (name, h))
+    # Separate closures on request: one Volume Scatter per constituent with its own g.
+    s.phase_mixing = "SEPARATE"
+    check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "create_volume SEPARATE failed")
+    mat = _atmosphere_objects(scene)[0].active_material
+    nodes = _scatter_nodes(mat)
+    check("scatter (dithered)" not in nodes, "dithered scatter with SEPARATE")
+    close(nodes["mie scatter"].inputs["Anisotropy"].default_value, hg_g({"phase": "cornette_shanks", "g": 0.8}),
+          rel=1e-6, what="Mie g")
+    close(nodes["rayleigh scatter"].inputs["Anisotropy"].default_value, 0.0, abs_=1e-12, what="Rayleigh g")
+    for c in desc["constituents"]:
+        if max(c["scattering_rgb"]) > 0:
+            got = _scattering_rgb(mat, c["name"])
+            for i in range(3):
+                close(got[i], c["scattering_rgb"][i], rel=1e-6, what="%s σs[%d] (separate)" % (c["name"], i))
+    s.phase_mixing = "DITHER"
+    check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "create_volume DITHER failed")
+    obj = _atmosphere_objects(scene)[0]
     # The domain: a closed shell cap around the camera, from the ground to the top.
     theta = min(math.pi, 1.05 * s.view_distance / R + 1e-3)
     check_closed_shell(obj, (0.0, 0.0, -R), R, EARTH_TOP_KM, theta)
@@ -499,7 +598,7 @@ def test_vdb_volume():
         for name in names:
             m = meta[name]
             if max(m["airmass:scattering_rgb"]) > 0:
-                got = _coefficient_rgb(nodes["%s scatter" % name])
+                got = _scattering_rgb(obj.active_material, name)
                 for i in range(3):
                     close(got[i], m["airmass:scattering_rgb"][i], rel=1e-6, what="%s σs[%d]" % (name, i))
             if max(m["airmass:absorption_rgb"]) > 0:
