@@ -507,6 +507,14 @@ def markdown(job, summary, images):
     return "\n".join(L) + "\n"
 
 
+def bias_summary(r):
+    """"mean x, signed y (R, G, B), z beyond noise" of an rgb_render-like entry."""
+    pc = r.get("per_channel", {})
+    return "mean %s, signed %s (R %s, G %s, B %s), %s beyond noise" % (
+        fmt_pct(r["mean_rel_err"]), fmt_pct(r["signed_mean_rel_err"]),
+        *[fmt_pct(pc.get(ch, {}).get("signed_mean_rel_err")) for ch in "RGB"], fmt_pct(r["bias_beyond_noise"]))
+
+
 def known_differences(job, summary, path):
     gaps = summary.get("native_gaps", {})
     out = []
@@ -561,23 +569,14 @@ def known_differences(job, summary, path):
                 "phase functions of several Volume Scatter closures without their weights "
                 "(_volume_shader_phase_eval_mis). ")
         if rr:
-            pc = rr.get("per_channel", {})
-            text += ("Here that render differs from the same reference by mean %s, signed %s (R %s, G %s, B %s), "
-                     "%s beyond noise." % (fmt_pct(rr["mean_rel_err"]), fmt_pct(rr["signed_mean_rel_err"]),
-                                           fmt_pct(pc.get("R", {}).get("signed_mean_rel_err")),
-                                           fmt_pct(pc.get("G", {}).get("signed_mean_rel_err")),
-                                           fmt_pct(pc.get("B", {}).get("signed_mean_rel_err")),
-                                           fmt_pct(rr["bias_beyond_noise"])))
+            text += "Here that render differs from the same reference by %s." % bias_summary(rr)
         else:
             text += "That render was not made in this run (--volume-modes)."
         rd = e.get("rgb_dither_render")
         if rd:
             text += (" With the scatterers' phases dithered into one Volume Scatter (anisotropy and colour of "
                      "constituent j with probability ∝ max σs_j ρ_j, White Noise of the position; rgb_dither) only "
-                     "the colour-channel bias is left: mean %s, signed %s (R %s, G %s, B %s), %s beyond noise." % (
-                         fmt_pct(rd["mean_rel_err"]), fmt_pct(rd["signed_mean_rel_err"]),
-                         *[fmt_pct(rd["per_channel"].get(ch, {}).get("signed_mean_rel_err")) for ch in "RGB"],
-                         fmt_pct(rd["bias_beyond_noise"])))
+                     "the colour-channel bias is left: %s." % bias_summary(rd))
         out.append(text)
     elif e.get("blender_mode") == "dither":
         m = job.get("multiple", {})
