@@ -376,7 +376,10 @@ def analyse(d, job):
             heat_map(os.path.join(pngdir, "%s_error.png" % path), e, "%s: relative error vs %s" % (path, ref_name))
             panels = [("native (%s)" % ref_name, tn), ("Blender, %d seeds × %d samples" % (
                 info["seeds"], info["samples"]), tb)]
-            if path != "sky_texture" and "native_physical" in natives:
+            if path == "analytic_volume_ms" and "native_matched" in natives:
+                # what multiple scattering adds: the same reference without it
+                panels.append(("native, single scattering only (native_matched)", tone_map(natives["native_matched"], k)))
+            elif path != "sky_texture" and "native_physical" in natives:
                 panels.append(("native physical (scene phases, spectral)", tone_map(natives["native_physical"], k)))
             side_by_side(os.path.join(pngdir, "%s_side_by_side.png" % path), panels, TITLES[path])
             images[path] = True
