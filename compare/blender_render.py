@@ -479,70 +479,48 @@ class Closures:
     def _absorb(node, k, values):
         node.inputs["Color"].default_value = tuple(1.0 - v / k for v in values) + (1.0,)
 
-    def _dither_off(self):
-        if self.dither:
-            self.dither.set(0.0, {}, {})
-
-    def set_rgb_dither(self):
-        if not self.dither:
-            raise RuntimeError("the material has no dithered scattering closure")
-        weights, colours = {}, {}
+    def _apply(self, scatter, stand_in, absorb, dither=None):
+        """Sets every closure: scatter(name, c) and stand_in(name, c) → RGB σ of constituent c's
+        Volume Scatter and of the Volume Absorption standing in for it, absorb(c) → its σa;
+        dither: Dither.set's (gain, weights, colours), or None to switch it off."""
         for name, c in self.constituents.items():
             if name in self.scatter:
-                s = c["scattering_rgb"]
-                m = max(s)
-                weights[name], colours[name] = m, tuple(v / m for v in s)
-                self.scatter[name].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+                self.scatter[name].inputs["Color"].default_value = tuple(scatter(name, c)) + (1.0,)
                 node, k = self.stand_in[name]
-                self._absorb(node, k, (0.0,) * 3)
+                self._absorb(node, k, stand_in(name, c))
             if name in self.absorb:
                 node, k = self.absorb[name]
-                self._absorb(node, k, c["absorption_rgb"])
-        self.dither.set(1.0, weights, colours)
+                self._absorb(node, k, absorb(c))
+        if dither is not None and not self.dither:
+            raise RuntimeError("the material has no dithered scattering closure")
+        if self.dither:
+            self.dither.set(*(dither or (0.0, {}, {})))
 
     def set_rgb(self):
-        self._dither_off()
-        for name, c in self.constituents.items():
-            if name in self.scatter:
-                s = c["scattering_rgb"]
-                self.scatter[name].inputs["Color"].default_value = (s[0], s[1], s[2], 1.0)
-                node, k = self.stand_in[name]
-                self._absorb(node, k, (0.0, 0.0, 0.0))
-            if name in self.absorb:
-                node, k = self.absorb[name]
-                self._absorb(node, k, c["absorption_rgb"])
+        self._apply(lambda n, c: c["scattering_rgb"], _black, lambda c: c["absorption_rgb"])
 
     def set_split(self, channel, scatterer):
-        self._dither_off()
-        for name, c in self.constituents.items():
-            if name in self.scatter:
-                v = c["scattering_rgb"][channel]
-                on = name == scatterer
-                self.scatter[name].inputs["Color"].default_value = (v, v, v, 1.0) if on else (0.0, 0.0, 0.0, 1.0)
-                node, k = self.stand_in[name]
-                self._absorb(node, k, (0.0,) * 3 if on else (v,) * 3)
-            if name in self.absorb:
-                node, k = self.absorb[name]
-                self._absorb(node, k, (c["absorption_rgb"][channel],) * 3)
+        def grey(v):
+            return (v,) * 3
 
+        self._apply(lambda n, c: grey(c["scattering_rgb"][channel]) if n == scatterer else _black(),
+                    lambda n, c: _black() if n == scatterer else grey(c["scattering_rgb"][channel]),
+                    lambda c: grey(c["absorption_rgb"][channel]))
 
     def set_ms(self, channel, dither):
         """Grey, the whole medium at `channel`: one closure per scatterer, or the dithered one."""
-        if dither and not self.dither:
-            raise RuntimeError("the material has no dithered scattering closure")
-        for name, c in self.constituents.items():
-            if name in self.scatter:
-                v = 0.0 if dither else c["scattering_rgb"][channel]
-                self.scatter[name].inputs["Color"].default_value = (v, v, v, 1.0)
-                node, k = self.stand_in[name]
-                self._absorb(node, k, (0.0,) * 3)
-            if name in self.absorb:
-                node, k = self.absorb[name]
-                self._absorb(node, k, (c["absorption_rgb"][channel],) * 3)
-        if self.dither:
-            self.dither.set(1.0 if dither else 0.0,
-                            {n: float(c["scattering_rgb"][channel]) for n, c in self.constituents.items()
-                             if n in self.scatter}, {})
+        weights = {n: float(c["scattering_rgb"][channel]) for n, c in self.constituents.items() if n in self.scatter}
+        self._apply(lambda n, c: _black() if dither else (c["scattering_rgb"][channel],) * 3, _black,
+                    lambda c: (c["absorption_rgb"][channel],) * 3, (1.0, weights, {}) if dither else None)
+
+    def set_rgb_dither(self):
+        m = {n: max(c["scattering_rgb"]) for n, c in self.constituents.items() if n in self.scatter}
+        colours = {n: tuple(v / m[n] for v in self.constituents[n]["scattering_rgb"]) for n in m}
+        self._apply(_black, _black, lambda c: c["absorption_rgb"], (1.0, m, colours))
+
+
+def _black(*_):
+    return (0.0, 0.0, 0.0)
 
 
 class Dither:
@@ -568,7 +546,7 @@ class Dither:
         noise.noise_dimensions = "3D"
         nodes.l.new(nodes.n.new("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
         u_total = nodes.math("MULTIPLY", noise.outputs["Value"], total)
-        g = nodes.math("ADD", nodes.math("MULTIPLY", total, 0.0), float(scatterers[0][0]["g_hg"]))
+        g = float(scatterers[0][0]["g_hg"])  # a constant until the first choice below adds to it
         colour = self.colours[scatterers[0][0]["name"]].outputs[0]
         cum = d[0]
         for j in range(1, len(scatterers)):
@@ -588,7 +566,10 @@ class Dither:
         self.scatter = nodes.n.new("ShaderNodeVolumeScatter")
         nodes.l.new(colour, self.scatter.inputs["Color"])
         nodes.l.new(self.gain.outputs[0], self.scatter.inputs["Density"])
-        nodes.l.new(g, self.scatter.inputs["Anisotropy"])
+        if isinstance(g, float):  # a single scatterer
+            self.scatter.inputs["Anisotropy"].default_value = g
+        else:
+            nodes.l.new(g, self.scatter.inputs["Anisotropy"])
         self.set(0.0, {}, {})
 
     def set(self, gain, weights, colours):
@@ -625,7 +606,15 @@ def volume_closures(nodes, constituent, density, closures):
     return out
 
 
-def volume_material(name, job, density_of):
+def needs_dither(job, path):
+    """Whether a mode of `path` renders the dithered Volume Scatter: its nodes would cost shader
+    time at every ray-marching step of the other renders too."""
+    if path == "analytic_volume_ms":
+        return "dither" in job["multiple"]["modes"]
+    return "rgb_dither" in job.get("volume_modes", [])
+
+
+def volume_material(name, job, density_of, dither):
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     nt = mat.node_tree
@@ -643,7 +632,7 @@ def volume_material(name, job, density_of):
             scatterers.append((c, rho))
     if not shaders:
         raise RuntimeError("no constituent scatters or absorbs: nothing to render")
-    if scatterers:
+    if dither and scatterers:
         closures.dither = Dither(nodes, scatterers)
         shaders.append(closures.dither.scatter.outputs[0])
     closures.set_rgb()
@@ -686,7 +675,7 @@ def make_analytic_volume(scene, job, path):
         h = altitude_socket(nodes, planet["center"], R)
         return profile_socket(nodes, h, c["profile"], top_alt)
 
-    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of)
+    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of, needs_dither(job, path))
     obj.data.materials.append(mat)
     base = 0.1 * 2.0 * (top + margin)  # 0.1 × mean bounding-box size
     step = set_step(scene, mat, base, float(job["volume"]["step_km"]), job["volume"]["max_steps"])
@@ -706,7 +695,7 @@ def make_vdb_volume(scene, job):
         attr.attribute_name = c["name"]
         return attr.outputs["Fac"]
 
-    mat = volume_material("AirmassAtmosphereVDB", job, density_of)
+    mat = volume_material("AirmassAtmosphereVDB", job, density_of, needs_dither(job, "vdb_volume"))
     for i, f in enumerate(files):
         vol = bpy.data.volumes.new("AirmassVDB%d" % i)
         vol.filepath = f

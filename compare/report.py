@@ -145,6 +145,19 @@ def load_blender(d, path, seeds, mode, scatterers=1):
     return mean, se, stack
 
 
+def other_render(d, path, info, mode, ref):
+    """A path's renders in another mode (rgb, rgb_dither, closures) against its reference:
+    (statistics with the Blender seconds, the mean image)."""
+    b, se, stack = load_blender(d, path, int(info["seeds"]), mode)
+    if not np.all(np.isfinite(stack)):
+        raise RuntimeError("non-finite pixels in the %s Blender render" % mode)
+    st, _ = rel_stats(b, ref, se)
+    r = {k: st[k] for k in ("mean_rel_err", "p95_rel_err", "max_rel_err", "noise_rel", "bias_beyond_noise",
+                            "signed_mean_rel_err", "per_channel")}
+    r["blender_seconds"] = float(sum(info["render_seconds"][mode]))
+    return r, b
+
+
 def heat_map(path_png, e, title):
     import matplotlib
 
@@ -338,14 +351,7 @@ def analyse(d, job):
                         "fraction_beyond_3_sigma", "per_channel")}
                 if mode == "dither" and "closures" in modes:
                     # Cycles 3.4's phase-summing bias: one Volume Scatter per constituent.
-                    b_c, se_c, stack_c = load_blender(d, path, int(info["seeds"]), "closures")
-                    if not np.all(np.isfinite(stack_c)):
-                        raise RuntimeError("non-finite pixels in the closures Blender render")
-                    cs, _ = rel_stats(b_c, ref, se_c)
-                    entry["closures_render"] = {k: cs[k] for k in (
-                        "mean_rel_err", "p95_rel_err", "max_rel_err", "noise_rel", "bias_beyond_noise",
-                        "signed_mean_rel_err", "per_channel")}
-                    entry["closures_render"]["blender_seconds"] = float(sum(info["render_seconds"]["closures"]))
+                    entry["closures_render"], _ = other_render(d, path, info, "closures", ref)
             if path not in ("sky_texture", "analytic_volume_ms") and "native_physical" in natives:
                 phys, _ = rel_stats(b, natives["native_physical"], se)
                 entry["vs_physical"] = {k: phys[k] for k in ("mean_rel_err", "p95_rel_err", "max_rel_err",
@@ -356,13 +362,7 @@ def analyse(d, job):
                 # The same volume rendered in one RGB render, the way users render it: Cycles'
                 # per-step colour-channel sampling bias, and with one Volume Scatter per
                 # constituent (rgb) its phase-summing bias; rgb_dither has one dithered closure.
-                b_rgb, se_rgb, stack_rgb = load_blender(d, path, int(info["seeds"]), rgb_mode)
-                if not np.all(np.isfinite(stack_rgb)):
-                    raise RuntimeError("non-finite pixels in the %s Blender render" % rgb_mode)
-                rs, _ = rel_stats(b_rgb, ref, se_rgb)
-                r = {k: rs[k] for k in ("mean_rel_err", "p95_rel_err", "max_rel_err", "noise_rel",
-                                        "bias_beyond_noise", "signed_mean_rel_err", "per_channel")}
-                r["blender_seconds"] = float(sum(info["render_seconds"][rgb_mode]))
+                r, b_rgb = other_render(d, path, info, rgb_mode, ref)
                 cb, _ = rel_stats(b_rgb, b)
                 r["vs_split_signed_mean"] = cb["signed_mean_rel_err"]
                 r["vs_split_per_channel_signed"] = {ch: v["signed_mean_rel_err"] for ch, v in cb["per_channel"].items()}

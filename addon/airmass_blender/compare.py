@@ -48,7 +48,7 @@ from mathutils import Vector
 
 from . import native
 from .jobs import JobError, Plan
-from .properties import KM, SettingsError, make_spec, resolve_output_folder
+from .properties import KM, SettingsError, ensure_folder, make_spec, resolve_output_folder
 
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 CLI_ENV = "AIRMASS_CLI"  # overrides the bundled CLI (like AIRMASS_C_LIBRARY for the library)
@@ -371,15 +371,7 @@ class ComparePlan(Plan):
         self.camera = camera_for_cli(scene, cam_obj, unit_m, self.width, s.view_distance)
         self.scene_text = checked_scene_toml(make_spec(s), self.camera)
         if output_folder is not None:
-            folder = os.path.normpath(bpy.path.abspath(output_folder))
-            if not os.path.isdir(folder):
-                try:
-                    os.makedirs(folder, exist_ok=True)
-                except OSError as e:
-                    raise SettingsError("Output Folder '%s' cannot be created: %s" % (folder, e.strerror or e))
-            if not os.access(folder, os.W_OK | os.X_OK):
-                raise SettingsError("Output Folder '%s' is not writable" % folder)
-            self.folder = folder
+            self.folder = ensure_folder(os.path.normpath(bpy.path.abspath(output_folder)))
         else:
             self.folder = resolve_output_folder(s)
         self.name = "%s_compare" % bpy.path.clean_name(scene.name)

@@ -370,7 +370,12 @@ def resolve_output_folder(settings):
     if raw.startswith("//") and not bpy.data.filepath:
         raise SettingsError("Output Folder '%s' is relative to the .blend file, which is not saved yet: "
                             "save the file or choose an absolute folder" % raw)
-    path = os.path.normpath(bpy.path.abspath(raw))
+    return ensure_folder(os.path.normpath(bpy.path.abspath(raw)))
+
+
+def ensure_folder(path):
+    """`path` (absolute) as an existing, writable folder, created when missing; SettingsError
+    naming the Output Folder otherwise."""
     if os.path.exists(path) and not os.path.isdir(path):
         raise SettingsError("Output Folder '%s' is a file, not a folder" % path)
     if not os.path.isdir(path):

@@ -195,7 +195,7 @@ def dithered_scatter(nb, scatterers):
                     label="scatterer choice")
     nb.tree.links.new(nb.node("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
     u_total = nb.math("MULTIPLY", noise.outputs["Value"], total)
-    g = nb.math("ADD", nb.math("MULTIPLY", total, 0.0), float(scatterers[0][2]))
+    g = float(scatterers[0][2])  # a constant until the first choice below adds to it
     colour = colours[0]
     cum = shares[0]
     for j in range(1, len(scatterers)):
@@ -210,7 +210,7 @@ def dithered_scatter(nb, scatterers):
     node = nb.node("ShaderNodeVolumeScatter", name="scatter (dithered)", label="scatter (dithered)")
     nb.tree.links.new(colour, node.inputs["Color"])
     nb.tree.links.new(total, node.inputs["Density"])
-    nb.tree.links.new(g, node.inputs["Anisotropy"])
+    nb._feed(node.inputs["Anisotropy"], g)
     return node
 
 
@@ -231,10 +231,10 @@ def build_material(name, constituents, density_for, anisotropy_version=None, pha
         out.location = (900, 300)
         version = anisotropy_version or bpy.app.version
         shaders = []
-        hg = [(c["name"], [max(0.0, float(x)) for x in c["scattering_rgb"]],
-               hg_anisotropy(c.get("phase", "isotropic"), float(c.get("g", 0.0)))) for c in constituents]
-        hg = [x for x in hg if max(x[1]) > 0.0]
-        dither = (phase_mixing == "DITHER" and version < (4, 3, 0) and len({x[2] for x in hg}) > 1)
+        # Henyey–Greenstein g of every scattering constituent (what Blender < 4.3 renders)
+        g_of = {c["name"]: hg_anisotropy(c.get("phase", "isotropic"), float(c.get("g", 0.0)))
+                for c in constituents if max(float(x) for x in c["scattering_rgb"]) > 0.0}
+        dither = phase_mixing == "DITHER" and version < (4, 3, 0) and len(set(g_of.values())) > 1
         dithered = []
         for c in constituents:
             sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
@@ -243,7 +243,7 @@ def build_material(name, constituents, density_for, anisotropy_version=None, pha
                 continue
             density = density_for(nb, c["name"])
             if max(sigma_s) > 0.0 and dither:
-                dithered.append((c["name"], sigma_s, next(x[2] for x in hg if x[0] == c["name"]), density))
+                dithered.append((c["name"], sigma_s, g_of[c["name"]], density))
             elif max(sigma_s) > 0.0:
                 ds = max(sigma_s)
                 node = nb.node("ShaderNodeVolumeScatter", name="%s scatter" % c["name"], label="%s scatter" % c["name"])

@@ -43,7 +43,7 @@ void apply_ms_options(const std::string& command, const MsCliOptions& o, MsSetti
     try {
         validate(s);
     } catch (const std::invalid_argument& e) {
-        throw CliError(command + ": --ms-table / --ms-orders: " + e.what());
+        throw CliError(command + ": --ms-table: " + e.what());  // --ms-orders is checked above
     }
 }
 
