@@ -9,6 +9,10 @@
 
 #include "airmass/chapman.hpp"
 
+#include <cerf.h>
+
+#include "chapman_published.hpp"
+
 namespace airmass {
 namespace {
 
@@ -148,6 +152,24 @@ TEST(ChapmanProperties, SumOfSegmentsIsWhatTheRiggedFormIsFor) {
         RecordProperty("defect_original_" + std::to_string(chi), std::to_string(original));
         EXPECT_LT(rigged, original) << "chi=" << chi << " rigged " << rigged << " original " << original;
     }
+}
+
+// The core's erfcx (Boost's erfc with an exact exp(y²), Laplace's continued fraction beyond
+// y = 26; chapman_published.hpp) against libcerf's, which the core no longer links: over the
+// whole range the Kocifaj method feeds it, and across the switch between its two branches.
+TEST(Erfcx, MatchesLibcerf) {
+    for (double y : {0.0, 1e-300, 1e-8, 0.1, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 25.9999, 26.0, 26.0001, 30.0, 100.0,
+                     1e3, 1e6, 1e10, 1e150}) {
+        const double ours = detail::erfcx_nonnegative(y), theirs = erfcx(y);
+        const double rel = std::abs(ours / theirs - 1.0);
+        EXPECT_LE(rel, 2e-14) << "y = " << y << ": " << ours << " vs libcerf " << theirs;
+    }
+    for (int k = 0; k <= 4000; ++k) {
+        const double y = 40.0 * k / 4000.0;
+        EXPECT_LE(std::abs(detail::erfcx_nonnegative(y) / erfcx(y) - 1.0), 2e-14) << "y = " << y;
+    }
+    EXPECT_TRUE(std::isnan(detail::erfcx_nonnegative(-1.0)));
+    EXPECT_TRUE(std::isnan(detail::erfcx_nonnegative(std::nan(""))));
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 #include "airmass/image_io.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
 

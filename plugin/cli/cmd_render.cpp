@@ -26,6 +26,7 @@
 
 #include "airmass/image_io.hpp"
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/render.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/vdb_export.hpp"

@@ -34,6 +34,7 @@
 #include "airmass/monte_carlo.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "airmass/vdb_export.hpp"  // write_text_atomic

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/vdb_export.hpp"
 #include "airmass/vdb_trade.hpp"

@@ -20,6 +20,7 @@
 #include "airmass/image_io.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
 #include "commands.hpp"

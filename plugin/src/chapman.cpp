@@ -1,6 +1,7 @@
 // Dispatch over the Chapman methods, the derived forms (plain, log, rescaled) and
 // the batch loops. One template serves float and double.
 #include "airmass/chapman.hpp"
+#include "airmass/simd.hpp"
 
 #include <algorithm>
 #include <array>
@@ -23,7 +24,7 @@ constexpr std::array<ChapmanMethodInfo, 8> kMethods{{
     {ChapmanMethod::schuler2012_full, "schuler2012-full", "Schuler 2012 rational form with full Ch_par = (1/2x+1) sqrt(pi x/2)"},
     {ChapmanMethod::schuler2012_rigged, "schuler2012-rigged", "Schuler 2012 Listing 2.1 chapman_h: c = sqrt(x), 50%-heights, exp2"},
     {ChapmanMethod::schuler2012_rigged_exp2pp, "schuler2012-rigged-exp2pp", "Listing 2.1 chapman_h with the Listing 2.3 exp2pp"},
-    {ChapmanMethod::kocifaj1996, "kocifaj1996", "Kocifaj 1996 closed form with erfcx (libcerf)"},
+    {ChapmanMethod::kocifaj1996, "kocifaj1996", "Kocifaj 1996 closed form with erfcx"},
     {ChapmanMethod::golubev2019, "golubev2019", "Golubev 2019 Eq. 45: erfcx by a rational approximation"},
 }};
 
@@ -51,10 +52,29 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 // The batch loop is written once; `method` is a compile-time constant inside so each
 // method's loop body is inlined and free of the dispatch switch.
 // `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
+// The loop is compiled twice: for baseline x86-64 and, with everything it calls inlined
+// (flatten), for AVX2/FMA; simd_target() picks one at run time (airmass/simd.hpp).
 template <class T, ChapmanMethod M, class X, class Out>
-void batch_loop(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
+[[gnu::always_inline]] inline void batch_body(X& x_of, std::span<const T> c, std::span<const T> s, Out& out) {
     const size_t n = c.size();
     for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), c[i], s[i]));
+}
+
+#if AIRMASS_SIMD_DISPATCH
+template <class T, ChapmanMethod M, class X, class Out>
+AIRMASS_TARGET_AVX2_FMA void batch_loop_avx2_fma(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
+    batch_body<T, M>(x_of, c, s, out);
+}
+#endif
+
+template <class T, ChapmanMethod M, class X, class Out>
+void batch_loop(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
+#if AIRMASS_SIMD_DISPATCH
+    // The exact quadrature is a reference, not a kernel: one copy is enough.
+    if constexpr (M != ChapmanMethod::exact)
+        if (simd_target() == SimdTarget::avx2_fma) return batch_loop_avx2_fma<T, M>(x_of, c, s, out);
+#endif
+    batch_body<T, M>(x_of, c, s, out);
 }
 
 template <class T, class X, class Out>

@@ -5,10 +5,11 @@
 // tests/test_chapman_extremes.cpp pins down exactly where, and docs/chapman.md says so.
 #pragma once
 
-#include <cerf.h>
-
 #include <cmath>
+#include <limits>
 #include <numbers>
+
+#include <boost/math/special_functions/erf.hpp>
 
 #include "chapman_internal.hpp"
 
@@ -80,10 +81,28 @@ inline ScaledChapman<T> chapman_schuler2012_rigged(T x, T mu, T sin_chi) {
 
 // Kocifaj 1996 as distilled by Schüler (§2.3) and Golubev (Eq. 40):
 //   Ch = ½ [cos chi + erfcx(sqrt(x cos²chi / 2)) (1/x + 2 − cos²chi) sqrt(pi x / 2)],
-// with erfcx from libcerf (double precision; float evaluates it in double).
+// with erfcx in double precision (float evaluates it in double).
+//
+// erfcx(y) = exp(y²) erfc(y), y ≥ 0: below y = 26 Boost's erfc (accurate to a few ulp far
+// into its tail) times exp(y²), with y² split exactly into hi + lo so that exp(y²) keeps full
+// relative precision; beyond (exp(y²) overflows) Laplace's continued fraction
+// erfc(y) = e^{−y²}/√π · 1/(y + ½/(y + 1/(y + (3/2)/(y + …)))), 40 terms (converged to
+// round-off for y ≥ 26). tests/test_chapman_properties.cpp checks it against libcerf.
+inline double erfcx_nonnegative(double y) {
+    if (!(y >= 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    if (y < 26.0) {
+        const double hi = y * y;
+        const double lo = std::fma(y, y, -hi);
+        return std::exp(hi) * (1.0 + lo) * boost::math::erfc(y);
+    }
+    double t = y;
+    for (int k = 40; k >= 1; --k) t = y + 0.5 * k / t;
+    return 1.0 / (std::sqrt(std::numbers::pi) * t);
+}
+
 template <class T>
 inline T kocifaj_upper(T x, T mu) {
-    const T e = static_cast<T>(erfcx(static_cast<double>(std::sqrt(x * mu * mu / T(2)))));
+    const T e = static_cast<T>(erfcx_nonnegative(static_cast<double>(std::sqrt(x * mu * mu / T(2)))));
     return T(0.5) * (mu + e * (T(1) / x + T(2) - mu * mu) * std::sqrt(std::numbers::pi_v<T> * x / T(2)));
 }
 

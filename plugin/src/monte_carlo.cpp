@@ -11,11 +11,9 @@
 #include <string>
 
 #include <glm/geometric.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "airmass/optical_depth.hpp"
+#include "airmass/parallel.hpp"
 #include "airmass/phase.hpp"
 
 namespace airmass {
@@ -246,11 +244,10 @@ McResult run(const Atmosphere& atm, const McSettings& set, Path&& path) {
     std::vector<double> sum(nw * blocks, 0.0), sum2(nw * blocks, 0.0);
     std::atomic<bool> stop{false};
     std::atomic<std::uint64_t> done{0};
-    tbb::task_arena arena(set.threads > 0 ? set.threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, nw * blocks, 1),
-                          [&](const tbb::blocked_range<std::uint64_t>& r) {
-                              for (std::uint64_t item = r.begin(); item != r.end(); ++item) {
+    {
+        parallel_for(0, std::size_t(nw * blocks), 1, set.threads,
+                          [&](std::size_t ib, std::size_t ie, int) {
+                              for (std::uint64_t item = ib; item != ie; ++item) {
                                   if (stop.load(std::memory_order_relaxed)) return;
                                   if (set.cancel && set.cancel->requested()) {
                                       stop = true;
@@ -271,7 +268,7 @@ McResult run(const Atmosphere& atm, const McSettings& set, Path&& path) {
                                   done.fetch_add(1, std::memory_order_relaxed);
                               }
                           });
-    });
+    }
     if (set.cancel && set.cancel->requested()) throw Cancelled("Monte Carlo cancelled");
     if (set.progress) set.progress(1.0);
     McResult out;

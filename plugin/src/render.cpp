@@ -13,13 +13,11 @@
 
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "airmass/color.hpp"
 #include "airmass/geometry.hpp"
 #include "airmass/optical_depth.hpp"
+#include "airmass/parallel.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
@@ -423,16 +421,15 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
     FloatImage image(W, H, 3);
     std::atomic<bool> non_finite{false};
     auto cancelled = [&] { return hooks.cancel && hooks.cancel->requested(); };
-    const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& rows) {
+    const int threads = settings.threads > 0 ? settings.threads : hardware_threads();
+    {
+        parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t row_begin, std::size_t row_end, int) {
             std::vector<PixelNode> nodes;
             std::vector<std::size_t> first(W + 1);
             std::vector<Vec3<double>> dirs;
             std::vector<double> T, Lr, Lm, L;
             std::vector<double> m1(nw), m2(nw), m3(nw);
-            for (int y = rows.begin(); y < rows.end(); ++y) {
+            for (int y = int(row_begin); y < int(row_end); ++y) {
                 if (cancelled()) return;
                 // The row's integration nodes: one per pixel centre, or the box filter's.
                 nodes.clear();
@@ -480,7 +477,7 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
                 if (hooks.work_done) hooks.work_done(1, std::size_t(H));
             }
         });
-    });
+    }
     if (cancelled()) throw Cancelled("render: cancelled");
     if (non_finite.load()) throw RenderError("render: a pixel evaluated to a non-finite value (a bug; please report it)");
     return image;

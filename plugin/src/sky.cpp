@@ -3,6 +3,8 @@
 // metadata (see sky.hpp for the conventions).
 #include "airmass/sky.hpp"
 
+#include "airmass/parallel.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -13,10 +15,6 @@
 
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
@@ -441,8 +439,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
 
     attach_tables(ctx, settings, hooks, tables, ms_work, total_work);
 
-    const int threads = settings.threads > 0 ? settings.threads : tbb::this_task_arena::max_concurrency();
-    tbb::task_arena arena(threads);
+    const int threads = settings.threads > 0 ? settings.threads : hardware_threads();
 
     // Scratch per thread for one batch of rays.
     struct Scratch {
@@ -458,7 +455,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                     {radiance.data(), n * nw}};
         }
     };
-    tbb::enumerable_thread_specific<Scratch> scratch;
+    std::vector<Scratch> scratch(static_cast<std::size_t>(threads));
     // Single scattering for a batch of directions, then each ray's multiple scattering.
     auto evaluate = [&](Scratch& s, std::size_t n) {
         single_scattering_batch(ctx.atmosphere, ctx.altitude_m, Vec3<double>(ctx.sun),
@@ -472,11 +469,11 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         // ---- the grid, then every pixel interpolated from it ----
         const int cols = G + 1;
         grid.rgb.assign(std::size_t(grid_rows) * cols * 3, 0.0);
-        arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<int>(0, grid_rows, 1), [&](const tbb::blocked_range<int>& r) {
-                Scratch& s = scratch.local();
+        {
+            parallel_for(0, std::size_t(grid_rows), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
+                Scratch& s = scratch[std::size_t(worker)];
                 s.resize(cols, nw);
-                for (int k = r.begin(); k < r.end(); ++k) {
+                for (int k = int(rb); k < int(re); ++k) {
                     if (cancelled()) return;
                     const double theta = grid.row_theta(k);
                     const double st = std::sin(theta), ct = std::cos(theta);
@@ -493,11 +490,11 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                     report(1);
                 }
             });
-        });
+        }
         if (cancelled()) throw Cancelled("sky: cancelled");
-        arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
-                for (int y = r.begin(); y < r.end(); ++y) {
+        {
+            parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
+                for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
                         const double theta = kPi * (y + 0.5) / H;
@@ -528,7 +525,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                     report(1);
                 }
             });
-        });
+        }
     } else {
         // ---- every pixel evaluated (half of them when the mirror applies) ----
         std::vector<int> columns;
@@ -537,11 +534,11 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
             if (x <= m) columns.push_back(x);
         }
         report(std::size_t(grid_rows));
-        arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<int>(0, H, 1), [&](const tbb::blocked_range<int>& r) {
-                Scratch& s = scratch.local();
+        {
+            parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
+                Scratch& s = scratch[std::size_t(worker)];
                 s.resize(columns.size(), nw);
-                for (int y = r.begin(); y < r.end(); ++y) {
+                for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
                         for (std::size_t k = 0; k < columns.size(); ++k)
@@ -557,7 +554,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                     report(1);
                 }
             });
-        });
+        }
     }
     if (cancelled()) throw Cancelled("sky: cancelled");
 
@@ -572,10 +569,10 @@ std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& 
     attach_tables(ctx, settings, {}, tables, 0, 0);
     const std::size_t nw = ctx.atmosphere.wavelength_count();
     std::vector<glm::dvec3> out(directions.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, directions.size(), 16),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
+    parallel_for(0, directions.size(), 16, settings.threads,
+                      [&](std::size_t kb, std::size_t ke, int) {
                           std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw), multiple(3 * nw);
-                          for (std::size_t k = r.begin(); k < r.end(); ++k) {
+                          for (std::size_t k = kb; k < ke; ++k) {
                               const glm::dvec3 d = glm::normalize(directions[k]);
                               single_scattering(ctx.atmosphere,
                                                 ViewRay{ctx.altitude_m, Vec3<double>(d), Vec3<double>(ctx.sun)},

@@ -120,7 +120,7 @@ struct MsSettings {
     // Sub-cells per grid cell and axis when integrating peaked phase functions (|g| > 0.3)
     // over the direction cells of the gather.
     int phase_subsamples = 4;
-    int threads = 0;  // 0: all hardware threads (TBB)
+    int threads = 0;  // 0: all hardware threads
     // Keep Σ_k L^k on the grid (diagnostics: flux balance). Costs one more table.
     bool keep_radiance = false;
     // Called from the calling thread between stages: (fraction done estimate, current order).

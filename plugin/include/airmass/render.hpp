@@ -48,7 +48,7 @@
 #include "airmass/atmosphere.hpp"
 #include "airmass/camera.hpp"
 #include "airmass/chapman.hpp"
-#include "airmass/image_io.hpp"
+#include "airmass/image.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/scene.hpp"
 #include "airmass/sky.hpp"

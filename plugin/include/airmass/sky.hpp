@@ -42,7 +42,7 @@
 #include <glm/vec3.hpp>
 
 #include "airmass/chapman.hpp"
-#include "airmass/image_io.hpp"
+#include "airmass/image.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/scene.hpp"

@@ -1,5 +1,5 @@
-// Progress bar on stderr and cooperative cancellation by SIGINT/SIGTERM.
-#include "airmass/progress.hpp"
+// Progress bar on stderr and cooperative cancellation by SIGINT/SIGTERM (airmass/terminal.hpp).
+#include "airmass/terminal.hpp"
 
 #include <signal.h>
 #include <unistd.h>
