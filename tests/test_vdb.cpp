@@ -1,7 +1,9 @@
 // vdb_export: round trips through OpenVDB files, regions, tiling, metadata, analytic
-// descriptions and bad input. Small regions and coarse voxels keep this fast.
+// descriptions and bad input; the OpenVDB-free volume layer's plan and dense blocks against
+// the OpenVDB writer's grids. Small regions and coarse voxels keep this fast.
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
+#include <openvdb/tools/Dense.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -14,6 +16,7 @@
 #include "airmass/vdb_export.hpp"
 #include "airmass/vdb_grids.hpp"
 #include "airmass/vdb_trade.hpp"
+#include "airmass/volume.hpp"
 
 namespace fs = std::filesystem;
 using namespace airmass;
@@ -284,7 +287,7 @@ TEST(Vdb, ViewFromOrbitSkipsThePlanetsHiddenSide) {
     o.tile_voxels = -1;
     const VdbVolume vol = build_vdb_volume(scene, o);
     const auto& L = vol.layout;
-    const Vec3d c = L.planet_center, eye = L.view->position;
+    const Vec3d c = to_openvdb(L.planet_center), eye = to_openvdb(L.view->position);
     const double occluder = 6360.0 - std::sqrt(3.0) * 60.0;
     std::size_t n = 0;
     for (const auto& g : vol.tiles[0].grids) {
@@ -577,6 +580,258 @@ TEST(VdbAnalytic, Df3IsBigEndian32BitWithAZeroBorder) {
                 vmax = std::max(vmax, at(i, j, k));
             }
     EXPECT_EQ(vmax, 0xffffffffu);
+}
+
+// ---- the volume layer: the plan and the dense blocks a host copies into its own grids ---------
+
+namespace {
+
+enum class LayerCase { planet, view, box, tiled };
+
+std::string layer_case_name(LayerCase c) {
+    switch (c) {
+        case LayerCase::planet: return "planet";
+        case LayerCase::view: return "view";
+        case LayerCase::box: return "box";
+        case LayerCase::tiled: return "tiled";
+    }
+    return "?";
+}
+
+void PrintTo(LayerCase c, std::ostream* os) { *os << layer_case_name(c); }
+
+Scene layer_scene(LayerCase c) {
+    Scene s = load_preset("earth");
+    if (c == LayerCase::view) s.camera = Camera{};  // ground, +X, 60°, 640×360, 200 km
+    return s;
+}
+
+VdbOptions layer_options(LayerCase c) {
+    VdbOptions o;
+    switch (c) {
+        case LayerCase::planet:
+            o.region = VdbRegion::planet;
+            o.voxel_size = 100.0;
+            o.tile_voxels = -1;
+            break;
+        case LayerCase::view:
+            o.region = VdbRegion::view;
+            o.voxel_size = 4.0;
+            break;
+        case LayerCase::box: o = small_box(); break;
+        case LayerCase::tiled:
+            o.region = VdbRegion::planet;
+            o.voxel_size = 100.0;
+            o.tile_voxels = 32;
+            break;
+    }
+    return o;
+}
+
+VoxelBox box_of(const VdbGridStats& g) {
+    return VoxelBox{{g.bbox[0], g.bbox[1], g.bbox[2]}, {g.bbox[3], g.bbox[4], g.bbox[5]}};
+}
+
+// The i-slabs [lo, hi] of a box, cut where (i − box.min.x) % step == 0 (step 8 and a box min
+// on a multiple of 8: whole OpenVDB leaves; any other step: leaves cut in two).
+std::vector<VoxelBox> i_slabs(const VoxelBox& box, int step, bool leaf_aligned) {
+    std::vector<VoxelBox> out;
+    int lo = box.min[0];
+    while (lo <= box.max[0]) {
+        int hi = leaf_aligned ? (lo >= 0 ? lo / 8 * 8 : -((-lo + 7) / 8) * 8) + step - 1 : lo + step - 1;
+        hi = std::min(hi, box.max[0]);
+        VoxelBox b = box;
+        b.min[0] = lo;
+        b.max[0] = hi;
+        out.push_back(b);
+        lo = hi + 1;
+    }
+    return out;
+}
+
+std::size_t dense_index(const VoxelBox& box, int x, int y, int z) {
+    return (std::size_t(x - box.min[0]) * std::size_t(box.dim(1)) + std::size_t(y - box.min[1])) * std::size_t(box.dim(2)) +
+           std::size_t(z - box.min[2]);
+}
+
+// What OpenVDB's Python copyFromArray(array, ijk=box.min, tolerance=0) does with a dense block.
+void copy_like_python(openvdb::FloatGrid& grid, const VoxelBox& box, std::vector<float>& values) {
+    openvdb::tools::Dense<float> dense(to_openvdb(box), values.data());
+    openvdb::tools::copyFromDense(dense, grid, 0.0f);
+}
+
+// Every active voxel of `a` is active in `b` with the same value, and they have as many.
+void expect_same_grid(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b, const std::string& what) {
+    EXPECT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
+    auto acc = b.getConstAccessor();
+    std::size_t bad = 0;
+    for (auto it = a.cbeginValueOn(); it; ++it) {
+        for (auto c = it.getBoundingBox().begin(); c; ++c) {  // a tile covers several voxels
+            if (!acc.isValueOn(*c) || acc.getValue(*c) != *it) {
+                if (bad++ == 0) ADD_FAILURE() << what << ": voxel " << *c << " is " << *it << " vs " << acc.getValue(*c);
+            }
+        }
+    }
+    EXPECT_EQ(bad, 0u) << what;
+}
+
+}  // namespace
+
+class VdbVolumeLayer : public ::testing::TestWithParam<LayerCase> {};
+
+TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
+    const Scene scene = layer_scene(GetParam());
+    const VdbOptions o = layer_options(GetParam());
+    const VdbVolume vol = build_vdb_volume(scene, o);  // the OpenVDB writer's grids
+    const VdbLayout layout = resolve_vdb_layout(scene, o);
+    const VolumePlan plan = plan_volume(layout);  // a separate sampling pass, no OpenVDB
+    if (GetParam() == LayerCase::tiled) {
+        EXPECT_GT(plan.stats.tiles, 4u);
+    }
+    if (GetParam() == LayerCase::planet) {
+        EXPECT_EQ(plan.stats.tiles, 1u);  // --tile-voxels -1
+    }
+    // The plan lists exactly the writer's grids: tiles, names, boxes, counts, dense sizes.
+    ASSERT_EQ(plan.stats.tiles, vol.tiles.size());
+    ASSERT_EQ(plan.stats.grids.size(), vol.stats.grids.size());
+    ASSERT_EQ(plan.grid_constituent.size(), plan.stats.grids.size());
+    EXPECT_EQ(plan.stats.active_voxels, vol.stats.active_voxels);
+    EXPECT_EQ(plan.stats.dense_bytes, vol.stats.dense_bytes);
+    EXPECT_EQ(plan.stats.dense_bytes_untiled, vol.stats.dense_bytes_untiled);
+    const VoxelBox bounds = volume_request_bounds(layout);
+    const VolumeSampler sampler(layout);
+    std::uint64_t compared = 0;
+    for (std::size_t i = 0; i < plan.stats.grids.size(); ++i) {
+        const VdbGridStats& pg = plan.stats.grids[i];
+        const VdbGridStats& wg = vol.stats.grids[i];
+        SCOPED_TRACE(pg.name + " tile " + std::to_string(pg.tile));
+        ASSERT_EQ(pg.name, wg.name);
+        ASSERT_EQ(pg.tile, wg.tile);
+        EXPECT_EQ(pg.bbox, wg.bbox);
+        EXPECT_EQ(pg.active_voxels, wg.active_voxels);
+        EXPECT_EQ(pg.dense_voxels, wg.dense_voxels);
+        const std::size_t c = plan.grid_constituent[i];
+        ASSERT_EQ(layout.constituents[c].name, pg.name);
+        const auto& g = vol.tiles[pg.tile].grids[c];
+        ASSERT_TRUE(g);
+        const VoxelBox box = box_of(pg);
+        ASSERT_TRUE(bounds.contains(box));
+        // The metadata the plan carries is the grid's, key for key and type for type.
+        for (const auto& m : volume_grid_metadata(layout, c, pg.tile, plan.stats.tiles)) {
+            const auto meta = (*g)[m.key];
+            ASSERT_TRUE(meta) << m.key;
+            std::visit(
+                [&](const auto& v) {
+                    using T = std::decay_t<decltype(v)>;
+                    if constexpr (std::is_same_v<T, std::array<double, 3>>) {
+                        EXPECT_EQ(g->metaValue<Vec3d>(m.key), Vec3d(v[0], v[1], v[2])) << m.key;
+                    } else {
+                        EXPECT_EQ(g->metaValue<T>(m.key), v) << m.key;
+                    }
+                },
+                m.value);
+        }
+        // The dense block over the grid's box, voxel for voxel: a[i][j][k] = voxel min + (i, j, k).
+        std::vector<float> dense(box.volume());
+        sample_volume_box(sampler, c, box, dense);
+        auto acc = g->getConstAccessor();
+        std::size_t bad = 0;
+        std::uint64_t nonzero = 0;
+        for (int x = box.min[0]; x <= box.max[0]; ++x)
+            for (int y = box.min[1]; y <= box.max[1]; ++y)
+                for (int z = box.min[2]; z <= box.max[2]; ++z) {
+                    const float d = dense[dense_index(box, x, y, z)];
+                    const Coord ijk(x, y, z);
+                    nonzero += d != 0.0f;
+                    if (d != acc.getValue(ijk) || (d != 0.0f) != acc.isValueOn(ijk)) {
+                        if (bad++ == 0) ADD_FAILURE() << "voxel " << ijk << ": dense " << d << ", grid " << acc.getValue(ijk);
+                    }
+                }
+        EXPECT_EQ(bad, 0u);
+        EXPECT_EQ(nonzero, g->activeVoxelCount());  // nothing of the grid lies outside its box
+        compared += box.volume();
+        // The host's path: copyFromArray of the whole block, and of leaf-aligned slabs into one
+        // grid (what vdb_host does), each give the writer's grid.
+        auto whole = openvdb::FloatGrid::create(0.0f);
+        copy_like_python(*whole, box, dense);
+        expect_same_grid(*g, *whole, "whole block");
+        auto parts = openvdb::FloatGrid::create(0.0f);
+        for (const VoxelBox& slab : i_slabs(box, 8, true)) {
+            std::vector<float> v(slab.volume());
+            sample_volume_box(sampler, c, slab, v);
+            copy_like_python(*parts, slab, v);
+        }
+        expect_same_grid(*g, *parts, "leaf-aligned slabs");
+        // Any split gives the same values as the whole block (here: slabs of 3 planes).
+        for (const VoxelBox& slab : i_slabs(box, 3, false)) {
+            std::vector<float> v(slab.volume());
+            sample_volume_box(sampler, c, slab, v);
+            for (int x = slab.min[0]; x <= slab.max[0]; ++x)
+                for (int y = slab.min[1]; y <= slab.max[1]; ++y)
+                    for (int z = slab.min[2]; z <= slab.max[2]; ++z)
+                        ASSERT_EQ(v[dense_index(slab, x, y, z)], dense[dense_index(box, x, y, z)])
+                            << "slab voxel " << Coord(x, y, z);
+        }
+    }
+    EXPECT_GT(compared, 1000u);
+}
+
+INSTANTIATE_TEST_SUITE_P(VdbRegions, VdbVolumeLayer,
+                         ::testing::Values(LayerCase::planet, LayerCase::view, LayerCase::box, LayerCase::tiled),
+                         [](const auto& info) { return layer_case_name(info.param); });
+
+TEST(VdbVolumeLayerBadInput, BlockRequestsAreRefusedWithNamedMessages) {
+    const Scene scene = load_preset("earth");
+    const VdbLayout layout = resolve_vdb_layout(scene, small_box());
+    const VolumeSampler sampler(layout);
+    const VoxelBox bounds = volume_request_bounds(layout);
+    ASSERT_FALSE(bounds.empty());
+    ASSERT_TRUE(bounds.contains(layout.index_bounds));
+    const auto expect_refused = [&](std::size_t c, const VoxelBox& box, std::size_t count, const std::string& fragment) {
+        std::vector<float> v(count);
+        try {
+            sample_volume_box(sampler, c, box, v);
+            ADD_FAILURE() << "no error; expected one mentioning '" << fragment << "'";
+        } catch (const VdbError& e) {
+            EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+        }
+    };
+    VoxelBox ok{{0, 0, 0}, {1, 2, 3}};
+    expect_refused(0, ok, 23, "values: 23 floats for a box of 2 x 3 x 4 = 24 voxels");
+    expect_refused(3, ok, 24, "constituent index 3: must be < 3");
+    VoxelBox empty_y = ok;
+    empty_y.max[1] = -1;
+    expect_refused(0, empty_y, 0, "box: min.y = 0 must be <= max.y = -1");
+    VoxelBox outside = ok;
+    outside.max[0] = bounds.max[0] + 1;
+    expect_refused(0, outside, std::size_t(outside.volume()), "must lie within the region's index bounds");
+    VoxelBox below = ok;
+    below.min[2] = bounds.min[2] - 1;
+    expect_refused(0, below, std::size_t(below.volume()), "must lie within the region's index bounds");
+    // A good request right at the bounds' corner works, and the plan refuses what the writer refuses.
+    VoxelBox corner{bounds.max, bounds.max};
+    std::vector<float> one(1, -1.0f);
+    sample_volume_box(sampler, 0, corner, one);
+    EXPECT_EQ(one[0], 0.0f);  // above the atmosphere top: inactive
+    VdbOptions tight = small_box();
+    tight.max_dense_mb = 0.01;
+    EXPECT_THROW(
+        {
+            try {
+                plan_volume(resolve_vdb_layout(scene, tight));
+            } catch (const VdbError& e) {
+                EXPECT_NE(std::string(e.what()).find("--max-dense-mb"), std::string::npos) << e.what();
+                throw;
+            }
+        },
+        VdbError);
+    CancelFlag cancel;
+    cancel.request();
+    VolumeRunOptions run;
+    run.cancel = &cancel;
+    EXPECT_THROW(plan_volume(layout, run), Cancelled);
+    std::vector<float> v(ok.volume());
+    EXPECT_THROW(sample_volume_box(sampler, 0, ok, v, run), Cancelled);
 }
 
 // ---- the voxel-size trade --------------------------------------------------------------------

@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"

@@ -13,7 +13,7 @@
 
 #include "airmass/vdb_grids.hpp"
 #include "atomic_output.hpp"
-#include "vdb_format.hpp"
+#include "volume/volume_format.hpp"
 
 namespace airmass {
 

@@ -2,10 +2,7 @@
 #include <openvdb/io/File.h>
 
 #include <chrono>
-#include <cstdio>
 #include <fstream>
-#include <map>
-#include <sstream>
 
 #include "airmass/progress.hpp"
 #include "airmass/vdb_grids.hpp"
@@ -15,68 +12,13 @@
 namespace airmass {
 
 namespace fs = std::filesystem;
-using detail::fmt;
-using detail::mib;
 
 std::vector<fs::path> vdb_output_paths(const fs::path& path, std::size_t tiles) {
     if (tiles <= 1) return {path};
-    // "<stem>.003.tile.vdb". Blender 3.4's importer (File > Import > OpenVDB) turns any
-    // multi-file selection of numbered names into one animated sequence unless "Detect
-    // Sequences" is off (use_sequence_detection=False); docs/vdb.md says so.
     std::vector<fs::path> out;
     const fs::path dir = path.parent_path();
-    const std::string stem = path.stem().string();
-    for (std::size_t t = 0; t < tiles; ++t) {
-        char idx[32];
-        std::snprintf(idx, sizeof idx, "%03zu", t);
-        out.push_back(dir / (stem + "." + idx + ".tile.vdb"));
-    }
-    out.push_back(dir / (stem + ".tiles.json"));
+    for (const auto& name : volume_file_names(path.stem().string(), tiles)) out.push_back(dir / name);
     return out;
-}
-
-std::string VdbStats::summary() const {
-    std::ostringstream o;
-    const std::string u(length_unit_name(unit));
-    o << "voxel size " << fmt(voxel_size) << " " << u << ", " << tiles << " tile(s)\n";
-    char line[256];
-    std::snprintf(line, sizeof line, "  %-12s %5s %14s %22s %12s %12s\n", "grid", "tile", "active voxels",
-                  "dense box (voxels)", "dense", "memory");
-    o << line;
-    // Per tile when there are few; per grid (summed over tiles) otherwise.
-    const bool per_tile = tiles <= 4;
-    std::map<std::string, VdbGridStats> sums;
-    std::vector<std::string> order;
-    for (const auto& g : grids) {
-        if (per_tile) {
-            const std::string box = std::to_string(g.bbox[3] - g.bbox[0] + 1) + "x" +
-                                    std::to_string(g.bbox[4] - g.bbox[1] + 1) + "x" +
-                                    std::to_string(g.bbox[5] - g.bbox[2] + 1);
-            std::snprintf(line, sizeof line, "  %-12s %5zu %14llu %22s %12s %12s\n", g.name.c_str(), g.tile,
-                          (unsigned long long)g.active_voxels, box.c_str(), mib(double(g.dense_voxels) * 4).c_str(),
-                          mib(double(g.memory_bytes)).c_str());
-            o << line;
-        } else {
-            if (!sums.count(g.name)) order.push_back(g.name);
-            auto& s = sums[g.name];
-            s.active_voxels += g.active_voxels;
-            s.dense_voxels += g.dense_voxels;
-            s.memory_bytes += g.memory_bytes;
-        }
-    }
-    for (const auto& name : order) {
-        const auto& s = sums[name];
-        std::snprintf(line, sizeof line, "  %-12s %5s %14llu %22s %12s %12s\n", name.c_str(), "all",
-                      (unsigned long long)s.active_voxels, "-", mib(double(s.dense_voxels) * 4).c_str(),
-                      mib(double(s.memory_bytes)).c_str());
-        o << line;
-    }
-    o << "  total: " << active_voxels << " active voxels, " << mib(double(memory_bytes)) << " in memory, dense boxes "
-      << mib(double(dense_bytes)) << " (as one tile: " << mib(double(dense_bytes_untiled)) << "), built in "
-      << fmt(build_seconds) << " s";
-    if (!files.empty()) o << ", written in " << fmt(write_seconds) << " s, " << mib(double(file_bytes)) << " on disk";
-    o << "\n";
-    return o.str();
 }
 
 void write_text_atomic(const fs::path& path, std::string_view text) {
@@ -94,29 +36,10 @@ void write_text_atomic(const fs::path& path, std::string_view text) {
 
 namespace {
 
-std::string tiles_manifest(const VdbVolume& volume, const std::vector<fs::path>& paths) {
-    using nlohmann::json;
-    json tiles = json::array();
-    for (std::size_t t = 0; t < volume.tiles.size(); ++t) {
-        json grids = json::object();
-        for (const auto& g : volume.stats.grids) {
-            if (g.tile != t) continue;
-            grids[g.name] = json{{"active_voxels", g.active_voxels},
-                                 {"bbox_min", {g.bbox[0], g.bbox[1], g.bbox[2]}},
-                                 {"bbox_max", {g.bbox[3], g.bbox[4], g.bbox[5]}}};
-        }
-        tiles.push_back(json{{"file", paths[t].filename().string()}, {"grids", grids}});
-    }
-    const auto& L = volume.layout;
-    json j{{"format", "airmass-vdb-tiles"},
-           {"format_version", detail::kVdbFormatVersion},
-           {"length_unit", std::string(length_unit_name(L.options.unit))},
-           {"voxel_size", L.voxel_size},
-           {"planet_center", {L.planet_center[0], L.planet_center[1], L.planet_center[2]}},
-           {"planet_radius", L.planet_radius},
-           {"atmosphere_top", L.atmosphere_top},
-           {"tiles", tiles}};
-    return j.dump(2) + "\n";
+std::vector<std::string> file_names(const std::vector<fs::path>& paths) {
+    std::vector<std::string> out;
+    for (const auto& p : paths) out.push_back(p.filename().string());
+    return out;
 }
 
 }  // namespace
@@ -147,7 +70,9 @@ VdbStats export_vdb(const Scene& scene, const VdbOptions& options, const fs::pat
         try {
             openvdb::io::File file(tmp.string());
             file.setCompression(compression);
-            file.write(grids, *detail::file_metadata(volume.layout, t, volume.tiles.size()));
+            openvdb::MetaMap meta;
+            detail::insert_metadata(meta, volume_file_metadata(volume.layout, t, volume.tiles.size()));
+            file.write(grids, meta);
             file.close();
         } catch (const openvdb::Exception& e) {
             throw VdbError("cannot write '" + paths[t].string() + "': " + e.what());
@@ -156,7 +81,7 @@ VdbStats export_vdb(const Scene& scene, const VdbOptions& options, const fs::pat
     if (volume.tiles.size() > 1) {
         const fs::path tmp = outputs.add(paths.back());
         std::ofstream f(tmp, std::ios::binary);
-        f << tiles_manifest(volume, paths);
+        f << volume_tiles_manifest(volume.layout, volume.stats, file_names(paths));
         f.close();
         if (!f) throw VdbError("cannot write '" + paths.back().string() + "'");
     }

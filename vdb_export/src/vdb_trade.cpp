@@ -14,7 +14,7 @@
 #include "airmass/optical_depth.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/vdb_grids.hpp"
-#include "vdb_format.hpp"
+#include "volume/volume_format.hpp"
 
 namespace airmass {
 
@@ -48,7 +48,7 @@ bool sphere_roots(const Vec3d& o, const Vec3d& d, const Vec3d& c, double r, doub
 // The part of the ray (t ≥ 0) inside the top sphere: [t_begin, t_end].
 std::pair<double, double> in_atmosphere(const VdbTradeRay& ray, const VdbLayout& L) {
     double t0, t1;
-    if (!sphere_roots(vec(ray.origin_km), vec(ray.direction), L.planet_center, L.atmosphere_top, t0, t1)) return {0, 0};
+    if (!sphere_roots(vec(ray.origin_km), vec(ray.direction), to_openvdb(L.planet_center), L.atmosphere_top, t0, t1)) return {0, 0};
     return {std::max(0.0, t0), std::max(0.0, t1)};
 }
 
@@ -162,7 +162,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
     std::vector<std::array<double, 3>> tau_ref(rays.size(), {0, 0, 0});
     for (std::size_t i = 0; i < rays.size(); ++i) {
         const auto [a, b] = in_atmosphere(rays[i], ref_layout);
-        const Vec3d o_m = (vec(rays[i].origin_km) - ref_layout.planet_center) * L_m;
+        const Vec3d o_m = (vec(rays[i].origin_km) - to_openvdb(ref_layout.planet_center)) * L_m;
         const auto pr = PlanetRay<double>::from_vectors(scene.planet.radius_m, Vec3<double>(o_m[0], o_m[1], o_m[2]),
                                                         Vec3<double>(rays[i].direction[0], rays[i].direction[1],
                                                                      rays[i].direction[2]));

@@ -1,5 +1,7 @@
 // Region membership: exact per-voxel tests and conservative per-block culling.
-#include "vdb_region.hpp"
+#include "volume_region.hpp"
+
+#include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +9,7 @@
 
 namespace airmass::detail {
 
-using openvdb::Vec3d;
+using Vec3d = Vec3<double>;
 
 namespace {
 
@@ -60,16 +62,16 @@ VdbRegionTest::VdbRegionTest(const VdbLayout& layout) : center_(layout.planet_ce
                                   {cam.forward * cam.tan_half_v, cam.up}};
         for (int i = 0; i < 4; ++i) {
             Vec3d n = dirs[i][0] + dirs[i][1];
-            n.normalize();
+            n = n / glm::length(n);
             const double reach = v * (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2]));
-            frustum_[i] = Plane{n, n.dot(camera_) - reach};
+            frustum_[i] = Plane{n, glm::dot(n, camera_) - reach};
         }
         occluder_radius_ = std::max(0.0, layout.planet_radius - sphere_margin_);
         // Shadow of the occluder seen from the camera: the cone tangent to it and the
         // half-space beyond the plane of the tangent circle. A segment from the camera to
         // a point in both crosses that plane inside the tangent disk, i.e. inside the ball.
         const Vec3d to_center = center_ - camera_;
-        const double dc = to_center.length();
+        const double dc = glm::length(to_center);
         if (dc > occluder_radius_ && occluder_radius_ > 0) {
             shadow_axis_ = to_center / dc;
             const double sin_a = occluder_radius_ / dc;
@@ -91,10 +93,11 @@ bool VdbRegionTest::occluded(const Vec3d& p) const {
     // Does the segment camera → p pass through the ball of radius occluder_radius_?
     const Vec3d d = p - camera_;
     const Vec3d f = camera_ - center_;
-    const double dd = d.dot(d);
+    const double dd = glm::dot(d, d);
     if (dd == 0.0) return false;
-    const double t = std::clamp(-f.dot(d) / dd, 0.0, 1.0);
-    return (f + d * t).lengthSqr() < occluder_radius_ * occluder_radius_;
+    const double t = std::clamp(-glm::dot(f, d) / dd, 0.0, 1.0);
+    const Vec3d q = f + d * t;
+    return glm::dot(q, q) < occluder_radius_ * occluder_radius_;
 }
 
 bool VdbRegionTest::contains_ignoring_shell(const Vec3d& p) const {
@@ -103,9 +106,10 @@ bool VdbRegionTest::contains_ignoring_shell(const Vec3d& p) const {
             if (p[a] < box_lo_[a] || p[a] > box_hi_[a]) return false;
     }
     if (has_view_) {
-        if ((p - camera_).lengthSqr() > ball_radius_ * ball_radius_) return false;
+        const Vec3d d = p - camera_;
+        if (glm::dot(d, d) > ball_radius_ * ball_radius_) return false;
         for (const auto& pl : frustum_)
-            if (pl.n.dot(p) < pl.offset) return false;
+            if (glm::dot(pl.n, p) < pl.offset) return false;
         if (occluded(p)) return false;
     }
     return true;
@@ -113,18 +117,18 @@ bool VdbRegionTest::contains_ignoring_shell(const Vec3d& p) const {
 
 bool VdbRegionTest::box_outside_plane(const Plane& pl, const Vec3d& lo, const Vec3d& hi) const {
     // The box is outside when even its corner farthest along n is below the offset.
-    Vec3d best;
+    Vec3d best(0.0);
     for (int a = 0; a < 3; ++a) best[a] = pl.n[a] >= 0 ? hi[a] : lo[a];
-    return pl.n.dot(best) < pl.offset;
+    return glm::dot(pl.n, best) < pl.offset;
 }
 
 bool VdbRegionTest::box_fully_occluded(const Vec3d& lo, const Vec3d& hi) const {
     if (shadow_cos_ > 1.0) return false;
     for (int i = 0; i < 8; ++i) {
         const Vec3d d = corner(lo, hi, i) - camera_;
-        const double along = d.dot(shadow_axis_);
+        const double along = glm::dot(d, shadow_axis_);
         if (along < shadow_plane_) return false;                 // before the tangent circle
-        if (along < d.length() * shadow_cos_) return false;      // outside the tangent cone
+        if (along < glm::length(d) * shadow_cos_) return false;  // outside the tangent cone
     }
     return true;
 }

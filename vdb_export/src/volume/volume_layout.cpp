@@ -1,17 +1,58 @@
-// Resolving an export request: units, constituents and their activity thresholds,
+// Resolving a volume request: units, constituents and their activity thresholds,
 // voxel size, the region's geometry and index bounds. Every rejected input names the
 // option or scene field, its value and what is allowed.
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "airmass/scene_io.hpp"
-#include "airmass/vdb_grids.hpp"
-#include "vdb_format.hpp"
+#include "airmass/volume.hpp"
+#include "volume_format.hpp"
 
 namespace airmass {
 
-using openvdb::Vec3d;
+using Vec3d = Vec3<double>;
+
+bool VoxelBox::contains(const VoxelCoord& c) const {
+    for (int a = 0; a < 3; ++a)
+        if (c[a] < min[a] || c[a] > max[a]) return false;
+    return true;
+}
+
+bool VoxelBox::contains(const VoxelBox& b) const {
+    if (b.empty()) return true;
+    for (int a = 0; a < 3; ++a)
+        if (b.min[a] < min[a] || b.max[a] > max[a]) return false;
+    return true;
+}
+
+bool VoxelBox::intersects(const VoxelBox& b) const {
+    if (empty() || b.empty()) return false;
+    for (int a = 0; a < 3; ++a)
+        if (b.max[a] < min[a] || b.min[a] > max[a]) return false;
+    return true;
+}
+
+void VoxelBox::expand(const VoxelCoord& c) {
+    if (empty()) {
+        min = max = c;
+        return;
+    }
+    for (int a = 0; a < 3; ++a) {
+        min[a] = std::min(min[a], c[a]);
+        max[a] = std::max(max[a], c[a]);
+    }
+}
+
+void VoxelBox::expand(const VoxelBox& b) {
+    if (b.empty()) return;
+    expand(b.min);
+    expand(b.max);
+}
 
 std::string_view length_unit_name(LengthUnit u) { return u == LengthUnit::km ? "km" : "m"; }
 double metres_per_unit(LengthUnit u) { return u == LengthUnit::km ? 1000.0 : 1.0; }
@@ -159,6 +200,7 @@ void check_options(const VdbOptions& o) {
 }
 
 Vec3d to_vec(const double (&a)[3]) { return Vec3d(a[0], a[1], a[2]); }
+double length(const Vec3d& v) { return glm::length(v); }
 
 VdbViewCone resolve_camera(const Scene& scene, const Vec3d& center, double radius_u, double L) {
     if (!scene.camera)
@@ -172,22 +214,22 @@ VdbViewCone resolve_camera(const Scene& scene, const Vec3d& center, double radiu
     v.position = to_vec(cam.position_m) / L + shift;
     for (double x : cam.position_m)
         if (!std::isfinite(x)) throw VdbError("camera.position_m: must be finite");
-    const double altitude_m = (v.position - center).length() * L - radius_u * L;
+    const double altitude_m = length(v.position - center) * L - radius_u * L;
     if (altitude_m < 0)
         throw VdbError("camera inside the planet: camera.position_m = (" + fmt(cam.position_m[0]) + ", " +
                        fmt(cam.position_m[1]) + ", " + fmt(cam.position_m[2]) + ") is " + fmt(-altitude_m) +
                        " m below the surface; the view region needs a camera at altitude >= 0");
     Vec3d f = to_vec(cam.direction), up = to_vec(cam.up);
-    if (!(f.length() > 0) || !std::isfinite(f.length()))
+    if (!(length(f) > 0) || !std::isfinite(length(f)))
         throw VdbError("camera.direction: must be a finite nonzero vector");
-    f.normalize();
-    Vec3d r = f.cross(up);
-    if (!(r.length() > 1e-9 * std::max(1.0, up.length())) || !std::isfinite(r.length()))
+    f = f / length(f);
+    Vec3d r = glm::cross(f, up);
+    if (!(length(r) > 1e-9 * std::max(1.0, length(up))) || !std::isfinite(length(r)))
         throw VdbError("camera.up: must be finite and not parallel to camera.direction");
-    r.normalize();
+    r = r / length(r);
     v.forward = f;
     v.right = r;
-    v.up = r.cross(f);
+    v.up = glm::cross(r, f);
     if (!(cam.fov_deg > 0 && cam.fov_deg < 180))
         throw VdbError("camera.fov_deg = " + fmt(cam.fov_deg) + ": must be in (0, 180)");
     if (cam.width < 1 || cam.height < 1)
@@ -196,7 +238,7 @@ VdbViewCone resolve_camera(const Scene& scene, const Vec3d& center, double radiu
     if (!(cam.max_distance_m > 0) || !std::isfinite(cam.max_distance_m))
         throw VdbError("camera.max_distance_m = " + fmt(cam.max_distance_m) + ": must be a finite distance > 0");
     // Blender's sensor fit AUTO: the field of view spans the larger image dimension.
-    const double t = std::tan(cam.fov_deg * M_PI / 360.0);
+    const double t = std::tan(cam.fov_deg * std::numbers::pi / 360.0);
     const double aspect = double(std::min(cam.width, cam.height)) / double(std::max(cam.width, cam.height));
     v.tan_half_h = cam.width >= cam.height ? t : t * aspect;
     v.tan_half_v = cam.width >= cam.height ? t * aspect : t;
@@ -257,7 +299,7 @@ double occupied_volume(const Scene& scene, const VdbOptions& options, const Reso
     const auto [lo_m, hi_m] = active_band(c.source->profile, c.density_threshold, 0.0, thickness_m);
     if (lo_m > hi_m) return 0.0;
     const double r0 = r.radius + lo_m / r.L, r1 = r.radius + hi_m / r.L;
-    double v = 4.0 / 3.0 * M_PI * (r1 * r1 * r1 - r0 * r0 * r0);
+    double v = 4.0 / 3.0 * std::numbers::pi * (r1 * r1 * r1 - r0 * r0 * r0);
     if (r.view) {
         // Solid angle of the rectangular frustum times D³/3.
         const double th = r.view->tan_half_h, tv = r.view->tan_half_v, D = r.view->max_distance;
@@ -278,7 +320,7 @@ double auto_voxel_size_resolved(const Scene& scene, const VdbOptions& options, c
     double v = feature_m / kVoxelsPerLayer / r.L;
     if (r.view) {
         // Finer than a pixel at the nearest atmosphere the camera can see is wasted.
-        const double nearest = std::max(0.0, (r.view->position - r.center).length() - r.top);
+        const double nearest = std::max(0.0, length(r.view->position - r.center) - r.top);
         v = std::max(v, nearest * r.view->footprint_per_distance);
     }
     // Coarse enough that the limits can hold the grids.
@@ -291,11 +333,11 @@ double auto_voxel_size_resolved(const Scene& scene, const VdbOptions& options, c
     return v;
 }
 
-openvdb::Coord floor_coord(const Vec3d& p, double v) {
-    return openvdb::Coord(int(std::floor(p[0] / v)), int(std::floor(p[1] / v)), int(std::floor(p[2] / v)));
+VoxelCoord floor_coord(const Vec3d& p, double v) {
+    return {int(std::floor(p[0] / v)), int(std::floor(p[1] / v)), int(std::floor(p[2] / v))};
 }
-openvdb::Coord ceil_coord(const Vec3d& p, double v) {
-    return openvdb::Coord(int(std::ceil(p[0] / v)), int(std::ceil(p[1] / v)), int(std::ceil(p[2] / v)));
+VoxelCoord ceil_coord(const Vec3d& p, double v) {
+    return {int(std::ceil(p[0] / v)), int(std::ceil(p[1] / v)), int(std::ceil(p[2] / v))};
 }
 
 }  // namespace
@@ -355,30 +397,30 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
                            " does not meet the shell between radius " + fmt(r.radius) + " and " + fmt(r.top) + " " +
                            unit + " around the planet centre (" + fmt(r.center[0]) + ", " + fmt(r.center[1]) + ", " +
                            fmt(r.center[2]) + ")");
-        lo = openvdb::math::maxComponent(lo, blo);
-        hi = openvdb::math::minComponent(hi, bhi);
+        lo = glm::max(lo, blo);
+        hi = glm::min(hi, bhi);
     }
     if (layout.view) {
         const double reach = layout.view->max_distance + std::sqrt(3.0) * v;
-        const double d_center = (layout.view->position - r.center).length();
+        const double d_center = length(layout.view->position - r.center);
         if (d_center - r.top > reach)
             throw VdbError("region outside the atmosphere: the camera is " + fmt(d_center - r.top) + " " + unit +
                            " from the top of the atmosphere but sees only " + fmt(layout.view->max_distance) + " " +
                            unit + " (camera.max_distance_m); raise it or move the camera");
-        lo = openvdb::math::maxComponent(lo, layout.view->position - Vec3d(reach));
-        hi = openvdb::math::minComponent(hi, layout.view->position + Vec3d(reach));
+        lo = glm::max(lo, layout.view->position - Vec3d(reach));
+        hi = glm::min(hi, layout.view->position + Vec3d(reach));
     }
     // Index coordinates are int32 and the build enumerates 8³ blocks: keep the extent sane.
     const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
     if (extent / v > 1.0e8)
         throw VdbError("--voxel-size = " + fmt(v) + " " + unit + " is too small for a region " + fmt(extent) + " " +
                        unit + " across (more than 1e8 voxels per axis); use a larger voxel size or a smaller region");
-    layout.index_bounds = openvdb::CoordBBox(floor_coord(lo, v), ceil_coord(hi, v));
+    layout.index_bounds = VoxelBox{floor_coord(lo, v), ceil_coord(hi, v)};
     return layout;
 }
 
 double vdb_density_at(const VdbLayout& layout, const VdbConstituent& c, const Vec3d& p) {
-    const double r = (p - layout.planet_center).length();
+    const double r = glm::length(p - layout.planet_center);
     if (r > layout.atmosphere_top) return 0.0;  // the model ends at the top
     return c.source->profile.at((r - layout.planet_radius) * layout.metres_per_unit);
 }

@@ -12,7 +12,7 @@
 
 #include <array>
 
-#include "airmass/vdb_grids.hpp"
+#include "airmass/volume.hpp"
 
 namespace airmass::detail {
 
@@ -26,36 +26,36 @@ public:
 
     // Exact test of one voxel centre against everything but the shell (the caller
     // tests radii per constituent band). `p` in world units.
-    bool contains_ignoring_shell(const openvdb::Vec3d& p) const;
+    bool contains_ignoring_shell(const Vec3<double>& p) const;
 
     // Conservative: false only when no point of the world box [lo, hi] can be in the
     // region with radius in [r_min, r_max] around the planet centre.
-    bool may_intersect(const openvdb::Vec3d& lo, const openvdb::Vec3d& hi, double r_min, double r_max) const;
+    bool may_intersect(const Vec3<double>& lo, const Vec3<double>& hi, double r_min, double r_max) const;
 
 private:
     struct Plane {
-        openvdb::Vec3d n;  // unit normal, pointing into the region
-        double offset;     // inside when n · p ≥ offset
+        Vec3<double> n{0.0};  // unit normal, pointing into the region
+        double offset = 0;  // inside when n · p ≥ offset
     };
-    bool box_outside_plane(const Plane& pl, const openvdb::Vec3d& lo, const openvdb::Vec3d& hi) const;
-    bool box_fully_occluded(const openvdb::Vec3d& lo, const openvdb::Vec3d& hi) const;
-    bool occluded(const openvdb::Vec3d& p) const;
+    bool box_outside_plane(const Plane& pl, const Vec3<double>& lo, const Vec3<double>& hi) const;
+    bool box_fully_occluded(const Vec3<double>& lo, const Vec3<double>& hi) const;
+    bool occluded(const Vec3<double>& p) const;
 
-    openvdb::Vec3d center_;
+    Vec3<double> center_{0.0};
     double shell_min_ = 0, shell_max_ = 0;
     double sphere_margin_ = 0;
     // view region
     bool has_view_ = false;
-    openvdb::Vec3d camera_;
+    Vec3<double> camera_{0.0};
     double ball_radius_ = 0;  // max distance + margin
     std::array<Plane, 4> frustum_{};
     double occluder_radius_ = 0;  // planet radius − margin
     // shadow cone of the occluder seen from the camera (conservative block culling)
-    openvdb::Vec3d shadow_axis_;
+    Vec3<double> shadow_axis_{0.0};
     double shadow_cos_ = 1, shadow_plane_ = 0;
     // box region
     bool has_box_ = false;
-    openvdb::Vec3d box_lo_, box_hi_;
+    Vec3<double> box_lo_{0.0}, box_hi_{0.0};
 };
 
 }  // namespace airmass::detail

@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <sstream>
 
-#include "airmass/vdb_grids.hpp"
-#include "vdb_format.hpp"
+#include "airmass/volume.hpp"
+#include "volume_format.hpp"
 
 #ifndef AIRMASS_VERSION
 #define AIRMASS_VERSION "unknown"
@@ -102,7 +102,7 @@ std::string analytic_density_json(const Scene& scene, const VdbOptions& options)
     }
     const json j{
         {"format", "airmass-analytic-density"},
-        {"format_version", detail::kVdbFormatVersion},
+        {"format_version", kVdbFormatVersion},
         {"airmass_version", AIRMASS_VERSION},
         {"scene_name", layout.scene_name},
         {"length_unit", std::string(length_unit_name(options.unit))},

@@ -1,0 +1,388 @@
+// The atmosphere as voxels, without OpenVDB: every decision behind the grids airmass
+// writes, in plain types, so that any host can build the same grids with its own
+// OpenVDB (library `airmass_volume`; no OpenVDB, no TBB: threads via airmass/parallel.hpp).
+//
+//   * the request, resolved and validated: units, voxel size, constituents and their
+//     activity thresholds, the region's geometry and index bounds (VdbLayout);
+//   * the sampling of each constituent's density into 8³ blocks (OpenVDB's leaf nodes),
+//     active where it reaches the constituent's threshold (VolumeSampler, sample_volume);
+//   * the tiling and the list of grids with their index bounding boxes, active voxel
+//     counts and dense sizes, refused above the limits (VolumePlan, plan_volume);
+//   * the grid and file metadata (volume_grid_metadata, volume_file_metadata), the file
+//     names and the tiles manifest;
+//   * dense blocks of one constituent's values over any index box (sample_volume_box), in
+//     the order numpy + OpenVDB's Python `grid.copyFromArray(array, ijk=box.min)` expect;
+//   * the closed-form descriptions (analytic density JSON, POV-Ray include).
+//
+// The OpenVDB writer (vdb_export.hpp, library airmass_vdb: `airmass vdb`, the tests) is
+// built on these functions, and the C ABI (airmass_c.h, "Volumes") exposes them to hosts
+// that write the files themselves (the Blender add-on), so both produce the same grids.
+//
+// Frame and index space. The scene frame of scene.hpp (Z up, origin on the surface below
+// the observer), scaled to the chosen length unit: with PlanetOrigin::surface (the
+// default) the planet centre is at (0, 0, −R); with PlanetOrigin::center the frame is
+// shifted by +R in z. Voxel (i, j, k) of every grid and tile holds the density at the
+// world point voxel_size · (i, j, k): OpenVDB's linear transform of voxel size v with no
+// translation, under which index point (i, j, k) is the centre of the voxel's cell
+// [i − ½, i + ½] · v (docs/vdb.md).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "airmass/geometry.hpp"
+#include "airmass/scene.hpp"
+
+namespace airmass {
+
+class CancelFlag;
+
+// Every problem with a volume request or its output: the message names the option
+// (CLI spelling), the value and what is allowed, and suggests a fix where one exists.
+struct VdbError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+enum class LengthUnit { km, m };
+enum class VdbRegion { planet, view, box };
+enum class PlanetOrigin { surface, center };
+// The three wavelengths at which each SpectralCoefficient is evaluated to give the
+// renderer's R, G, B coefficients.
+enum class RgbWavelengths {
+    automatic,  // schuler when the scene's basis is rgb_schuler, bruneton otherwise
+    bruneton,   // 680, 550, 440 nm (Bruneton 2017 demo, kLambdaR/G/B)
+    schuler,    // 615, 535, 445 nm (Schüler 2012 follow-up basis, seed 001)
+};
+
+std::string_view length_unit_name(LengthUnit u);  // "km", "m"
+double metres_per_unit(LengthUnit u);              // 1000, 1
+std::string_view region_name(VdbRegion r);         // "planet", "view", "box"
+
+struct VdbOptions {
+    VdbRegion region = VdbRegion::planet;
+    LengthUnit unit = LengthUnit::km;
+    PlanetOrigin origin = PlanetOrigin::surface;
+    // Edge of a voxel in `unit`; empty: automatic (auto_voxel_size).
+    std::optional<double> voxel_size;
+    // VdbRegion::box: {xmin, ymin, zmin, xmax, ymax, zmax} in `unit`, world frame.
+    std::array<double, 6> box{0, 0, 0, 0, 0, 0};
+    // Optical depth (in the most extinguishing RGB channel) that the inactive cells of
+    // one constituent may remove from any ray: a cell is active when its relative
+    // density is ≥ tolerance / (max_rgb(σs + σa) · longest chord through the shell).
+    // 0 keeps every cell of the region with a nonzero density.
+    double tolerance = 1e-4;
+    // Refuse (VdbError) when the dense bounding boxes Blender 3.4 allocates, summed
+    // over grids and tiles, exceed this many MiB (4 bytes per voxel of each box).
+    double max_dense_mb = 1024.0;
+    // Refuse before sampling when the grids could need more than this many MiB.
+    double max_memory_mb = 4096.0;
+    // Tiling: 0 = automatic (split when it shrinks the dense boxes), -1 = one tile,
+    // N > 0 = tiles of N voxels per edge (a multiple of 8).
+    int tile_voxels = 0;
+    int max_tiles = 256;
+    RgbWavelengths rgb = RgbWavelengths::automatic;
+};
+
+// Automatic voxel size in `unit` (docs/vdb.md, "Voxel size"): half the thinnest layer
+// among the active constituents (scale height, tent flank, knot spacing); no finer than
+// the camera's pixel footprint at the nearest point of the atmosphere it can see (view
+// region); and coarse enough that the region's estimated grids fit --max-memory-mb and
+// --max-dense-mb.
+double auto_voxel_size(const Scene& scene, const VdbOptions& options);
+
+// ---- index space -------------------------------------------------------------------------
+
+using VoxelCoord = std::array<std::int32_t, 3>;
+
+// An inclusive box of voxel indices; empty when min > max on any axis.
+struct VoxelBox {
+    VoxelCoord min{0, 0, 0};
+    VoxelCoord max{-1, -1, -1};
+
+    bool empty() const { return min[0] > max[0] || min[1] > max[1] || min[2] > max[2]; }
+    std::int64_t dim(int axis) const { return empty() ? 0 : std::int64_t(max[axis]) - min[axis] + 1; }
+    std::uint64_t volume() const { return std::uint64_t(dim(0)) * std::uint64_t(dim(1)) * std::uint64_t(dim(2)); }
+    bool contains(const VoxelCoord& c) const;
+    bool contains(const VoxelBox& b) const;  // an empty b is contained in anything
+    bool intersects(const VoxelBox& b) const;
+    void expand(const VoxelCoord& c);
+    void expand(const VoxelBox& b);
+    friend bool operator==(const VoxelBox&, const VoxelBox&) = default;
+};
+
+// ---- the resolved request ----------------------------------------------------------------
+
+// One constituent as exported: its grid name, the RGB coefficients per length unit at
+// density 1, and the altitude band outside which its relative density is below the
+// activity threshold (so its voxels there stay inactive).
+struct VdbConstituent {
+    const Constituent* source = nullptr;  // points into the Scene given to resolve_vdb_layout
+    std::string name;
+    std::array<double, 3> scattering_rgb{};  // per unit
+    std::array<double, 3> absorption_rgb{};  // per unit
+    double density_threshold = 0;            // cells with rho < threshold stay inactive
+    double band_min_m = 0, band_max_m = 0;   // altitude band that may hold active cells
+    double density_max = 0;                  // max of the profile over [0, atmosphere top]
+};
+
+// The camera of the view region, in the unit's world frame.
+struct VdbViewCone {
+    Vec3<double> position{0.0}, forward{0.0}, right{0.0}, up{0.0};  // orthonormal basis
+    double tan_half_h = 0, tan_half_v = 0;                          // half-angles of the frustum
+    double max_distance = 0;
+    double footprint_per_distance = 0;  // pixel footprint / distance (the AUTO sensor fit)
+};
+
+// Everything a build needs, resolved and validated, in the chosen unit.
+struct VdbLayout {
+    VdbOptions options;
+    double metres_per_unit = 1000;
+    double voxel_size = 1;  // in the unit
+    bool voxel_size_automatic = false;
+    Vec3<double> planet_center{0.0};  // world, unit
+    double planet_radius = 0;         // unit
+    double atmosphere_top = 0;        // radius of the top, unit
+    std::array<double, 3> rgb_wavelengths_nm{680, 550, 440};
+    std::string spectral_basis;  // metadata value, e.g. "rgb_bruneton_680_550_440"
+    std::vector<VdbConstituent> constituents;
+    std::optional<VdbViewCone> view;  // VdbRegion::view
+    VoxelBox index_bounds;            // all voxels the region may activate
+    std::string scene_name;
+    std::string scene_json;  // scene_to_json(scene), file-level metadata
+};
+
+// Validates the scene and the options (VdbError/SceneError naming the field) and
+// resolves units, voxel size, constituents and region.
+VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options);
+
+// Relative density of `c` at the world point `p` (unit) as the grids store it, i.e.
+// the profile at the point's altitude (0 above the atmosphere top), independent of
+// the region and the activity threshold.
+double vdb_density_at(const VdbLayout& layout, const VdbConstituent& c, const Vec3<double>& p);
+
+// ---- statistics --------------------------------------------------------------------------
+
+// One grid of the output, as Blender 3.4 will see it.
+struct VdbGridStats {
+    std::string name;
+    std::size_t tile = 0;
+    std::uint64_t active_voxels = 0;
+    std::array<std::int32_t, 6> bbox{};  // active index bounding box, min then max (inclusive)
+    std::uint64_t dense_voxels = 0;      // bbox volume: what Blender 3.4 densifies
+    std::uint64_t memory_bytes = 0;      // OpenVDB tree in memory (a plan estimates it from its leaves)
+};
+
+struct VdbStats {
+    double voxel_size = 0;  // in the unit
+    LengthUnit unit = LengthUnit::km;
+    std::size_t tiles = 0;
+    std::vector<VdbGridStats> grids;  // tile-major, constituents in layout order; empty grids omitted
+    std::uint64_t active_voxels = 0;  // summed over grids
+    std::uint64_t memory_bytes = 0;
+    std::uint64_t dense_bytes = 0;          // Σ dense_voxels · 4 with the chosen tiling
+    std::uint64_t dense_bytes_untiled = 0;  // the same for one tile
+    double build_seconds = 0;
+    double write_seconds = 0;
+    std::uint64_t file_bytes = 0;  // all .vdb files written (0 before writing)
+    std::vector<std::filesystem::path> files;
+
+    std::string summary() const;  // multi-line human-readable report
+};
+
+// ---- sampling ----------------------------------------------------------------------------
+
+// Progress: fraction of the work done, from the calling thread.
+using VdbProgress = std::function<void(double fraction)>;
+
+struct VolumeRunOptions {
+    VdbProgress progress;                // may be empty
+    const CancelFlag* cancel = nullptr;  // polled between batches; Cancelled is thrown
+    int threads = 0;                     // workers; 0: all hardware threads
+};
+
+// Blocks are OpenVDB's leaf nodes: 8³ voxels at origins that are multiples of 8. Within
+// a block, voxel (x, y, z) (0 ≤ x, y, z < 8) sits at offset x·64 + y·8 + z
+// (LeafNode::coordToOffset).
+inline constexpr int kVolumeBlockDim = 8;
+inline constexpr int kVolumeBlockVoxels = 512;
+inline constexpr std::size_t kMaxVolumeConstituents = 64;  // one bit each in a block's mask
+
+// A block that may hold active voxels, with one bit per constituent whose altitude band
+// it may meet.
+struct VolumeBlock {
+    VoxelCoord origin{0, 0, 0};
+    std::uint64_t constituents = 0;
+};
+
+// One constituent's values in one block.
+struct VolumeBlockValues {
+    std::array<float, kVolumeBlockVoxels> value{};  // 0 where inactive
+    std::array<std::uint64_t, kVolumeBlockVoxels / 64> active{};
+    std::uint32_t active_count = 0;
+    VoxelBox active_box;  // of the active voxels
+
+    bool on(int offset) const { return (active[std::size_t(offset) >> 6] >> (offset & 63)) & 1u; }
+};
+
+// The region test and the per-voxel sampling of one layout. Keeps a reference to the
+// layout (which must outlive it); const member functions may run concurrently.
+class VolumeSampler {
+public:
+    explicit VolumeSampler(const VdbLayout& layout);
+    ~VolumeSampler();
+    VolumeSampler(const VolumeSampler&) = delete;
+    VolumeSampler& operator=(const VolumeSampler&) = delete;
+
+    const VdbLayout& layout() const { return layout_; }
+
+    // Every block the region may activate, sorted by origin (x, then y, then z), found by
+    // recursive culling of the leaf-aligned cover of the index bounds. With `within`,
+    // only the blocks meeting that box — decided exactly as the full enumeration decides
+    // them (same hierarchy, same tests), so a box sees the blocks, and the values, that
+    // the whole grid has there. Throws VdbError when the blocks could exceed
+    // --max-memory-mb.
+    std::vector<VolumeBlock> blocks(const VoxelBox* within = nullptr, int threads = 0) const;
+
+    // Samples the constituents of the block's mask: the density at every voxel's index
+    // point inside the region, active where it is > 0, ≥ the constituent's threshold and
+    // nonzero as a float. `out` has one entry per layout constituent; every entry is
+    // reset. Returns the mask of the constituents that have at least one active voxel.
+    std::uint64_t fill(const VolumeBlock& block, std::span<VolumeBlockValues> out) const;
+
+private:
+    struct Region;
+    const VdbLayout& layout_;
+    std::unique_ptr<Region> region_;
+};
+
+// A block's summary for one constituent with at least one active voxel.
+struct VolumeLeaf {
+    VoxelCoord origin{0, 0, 0};
+    std::uint32_t constituent = 0;
+    std::uint32_t active_voxels = 0;
+    VoxelBox active_box;
+};
+
+// Workers sample_volume and sample_volume_box use for `threads` (0: all hardware threads).
+int volume_workers(int threads);
+
+// Called for each (block, constituent) with active voxels, from worker `worker` in
+// [0, volume_workers(threads)); calls with the same worker never overlap.
+using VolumeBlockSink =
+    std::function<void(int worker, const VolumeBlock& block, std::size_t constituent, const VolumeBlockValues& values)>;
+
+// The sampling pass: every block of the region, in parallel, in ~100 batches (progress
+// and cancellation between them). Returns the leaves sorted by (origin, constituent).
+// Throws VdbError (region outside the atmosphere, --max-memory-mb, more than
+// kMaxVolumeConstituents constituents), Cancelled.
+std::vector<VolumeLeaf> sample_volume(const VolumeSampler& sampler, const VolumeRunOptions& run = {},
+                                      const VolumeBlockSink& sink = {});
+
+// ---- tiling and the plan -----------------------------------------------------------------
+
+// The lattice of cubes the grids are split along (docs/vdb.md, "Tiling").
+struct VolumeTiling {
+    int tile_voxels = 0;            // edge in voxels; 0 = one tile
+    VoxelCoord base{0, 0, 0};       // a corner of the lattice (aligned to blocks)
+    std::size_t tiles = 1;
+    std::uint64_t dense_voxels = 0;          // Σ over tiles and grids of the bbox volume
+    std::uint64_t dense_voxels_untiled = 0;  // the same for one tile
+};
+
+// Picks the tiling (VdbOptions::tile_voxels, max_tiles; automatic: among lattices of
+// n = 2, 3, ... cubes across the grids' extent, centred on them, the one that minimises
+// dense bytes + 4 MiB per tile, preferring lattices that fit --max-dense-mb; one tile
+// when nothing beats it). Throws VdbError when --tile-voxels gives more than --max-tiles.
+VolumeTiling choose_volume_tiling(const std::vector<VolumeLeaf>& leaves, std::size_t constituents,
+                                  const VdbOptions& options);
+
+// What a build produces, without the voxels: the tiles and the grids of each.
+struct VolumePlan {
+    VdbLayout layout;  // its constituents still point into the Scene it was resolved from
+    VolumeTiling tiling;
+    std::vector<std::uint64_t> tile_keys;  // sorted; tile t holds the blocks whose key is tile_keys[t]
+    VdbStats stats;                        // grids tile-major; memory estimated from the leaves
+    std::vector<std::size_t> grid_constituent;  // per stats.grids entry: its index in layout.constituents
+
+    // The tile holding the block at `origin` (a leaf of the sampling pass).
+    std::size_t tile_of(const VoxelCoord& origin) const;
+};
+
+// Tiling, grids and limits from the leaves of a sampling pass. Throws VdbError when no
+// voxel is active or the dense boxes exceed --max-dense-mb (with a suggested voxel size).
+VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLeaf>& leaves);
+
+// sample_volume + make_volume_plan (the sampling's values are not kept).
+VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run = {});
+
+// ---- dense blocks ------------------------------------------------------------------------
+
+// The boxes sample_volume_box accepts: the blocks (leaf-aligned) covering the index bounds.
+VoxelBox volume_request_bounds(const VdbLayout& layout);
+
+// Constituent `constituent`'s grid over `box` (within volume_request_bounds), dense:
+// out[(i·ny + j)·nz + k] is voxel box.min + (i, j, k) — C order, z fastest, as a numpy
+// array a[i][j][k] that OpenVDB's Python `grid.copyFromArray(a, ijk=box.min)` takes —
+// and 0 where the voxel is inactive. These are the values the sampling pass gives, so a
+// tile's grid over its plan bbox is exactly the writer's grid of that tile (tiles are
+// unions of blocks). `out.size()` must be box.volume(). Throws VdbError (a box outside
+// the bounds, a wrong size), Cancelled; on failure `out` is unspecified.
+void sample_volume_box(const VolumeSampler& sampler, std::size_t constituent, const VoxelBox& box,
+                       std::span<float> out, const VolumeRunOptions& run = {});
+
+// ---- metadata and files ------------------------------------------------------------------
+
+// Version of the grid/metadata layout (airmass:format_version); bump on any change a
+// reader must know about.
+inline constexpr int kVdbFormatVersion = 1;
+// The grid class of every grid (OpenVDB's GridBase::gridClassToString(GRID_FOG_VOLUME)).
+inline constexpr std::string_view kVolumeGridClass = "fog volume";
+
+// A metadata value: OpenVDB's StringMetadata, DoubleMetadata, Int32Metadata, Vec3DMetadata.
+using VolumeMetaValue = std::variant<std::string, double, std::int32_t, std::array<double, 3>>;
+struct VolumeMetadatum {
+    std::string key;
+    VolumeMetaValue value;
+};
+std::string_view volume_meta_type(const VolumeMetaValue& v);  // "string", "double", "int32", "vec3d"
+
+// Every grid's metadata (docs/vdb.md, "Metadata"): the common keys plus the
+// constituent's profile, coefficients, phase and the tile it belongs to.
+std::vector<VolumeMetadatum> volume_grid_metadata(const VdbLayout& layout, std::size_t constituent, std::size_t tile,
+                                                  std::size_t tile_count);
+// A file's metadata: the common keys plus the scene (airmass:scene, JSON) and the tile.
+std::vector<VolumeMetadatum> volume_file_metadata(const VdbLayout& layout, std::size_t tile, std::size_t tile_count);
+
+// The file names of a volume with `tiles` tiles and the given stem: "<stem>.vdb" for one
+// tile, else "<stem>.000.tile.vdb", ... and the manifest "<stem>.tiles.json" (last).
+std::vector<std::string> volume_file_names(std::string_view stem, std::size_t tiles);
+// The manifest of a tiled volume (docs/vdb.md, "Tiling"); `file_names` as above.
+std::string volume_tiles_manifest(const VdbLayout& layout, const VdbStats& stats,
+                                  const std::vector<std::string>& file_names);
+
+// ---- analytic density --------------------------------------------------------------------
+
+// JSON description of the atmosphere for renderers that evaluate densities in closed
+// form (the Blender add-on's Cycles node tree, POV-Ray function patterns): planet and
+// frame in `unit`, and per active constituent its profile (type and parameters in
+// `unit`), RGB scattering/absorption per `unit` at density 1, phase function.
+// Schema in docs/vdb.md, "Analytic density".
+std::string analytic_density_json(const Scene& scene, const VdbOptions& options);
+
+// A POV-Ray 3.7 include declaring, per active constituent, the density as a function
+// of POV-Ray's (x, y, z) (y up: POV (x, y, z) = airmass (x, z, y), the planet centre
+// at <0, −R, 0> for PlanetOrigin::surface), its maximum, and its RGB coefficients.
+std::string pov_include(const Scene& scene, const VdbOptions& options);
+
+}  // namespace airmass

@@ -1,0 +1,193 @@
+// Tiling and the plan: Blender 3.4 densifies each grid's active bounding box, so a shell
+// seen from orbit in one box costs its whole empty interior. Splitting the grids into
+// tiles (a regular lattice of cubes, aligned to blocks) and keeping only the tiles that
+// hold active voxels, each with its own tight boxes, removes that waste. Tiles partition
+// the voxels and share one transform: trilinear interpolation is linear in the voxel
+// values, so the sum of the tiles renders like the single grid.
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <tuple>
+#include <unordered_map>
+
+#include "airmass/volume.hpp"
+#include "volume_format.hpp"
+
+namespace airmass {
+
+namespace {
+
+// A tile's per-tile cost beyond its voxels (an extra Volume object, file, BVH node):
+// splitting must save at least this much dense memory per extra tile.
+constexpr std::uint64_t kTileOverheadBytes = 4u << 20;
+constexpr int kDim = kVolumeBlockDim;
+constexpr double kLeafBytes = kVolumeBlockVoxels * sizeof(float) + 2 * (kVolumeBlockVoxels / 8) + 32;
+
+VoxelCoord block_floor(const VoxelCoord& c) {
+    const auto f = [](int a) { return a >= 0 ? a / kDim * kDim : -((-a + kDim - 1) / kDim) * kDim; };
+    return {f(c[0]), f(c[1]), f(c[2])};
+}
+
+std::uint64_t tile_key(const VoxelCoord& origin, const VoxelCoord& base, int tile_voxels) {
+    if (tile_voxels <= 0) return 0;
+    std::uint64_t key = 0;
+    for (int a = 0; a < 3; ++a) key = (key << 21) | std::uint64_t((origin[a] - base[a]) / tile_voxels);
+    return key;
+}
+
+// Σ over (tile, grid) of the tile's bbox volume, and the number of non-empty tiles.
+std::pair<std::uint64_t, std::size_t> dense_for(const std::vector<VolumeLeaf>& leaves, std::size_t nc,
+                                                const VoxelCoord& base, int tile_voxels) {
+    std::unordered_map<std::uint64_t, std::vector<VoxelBox>> tiles;
+    for (const auto& leaf : leaves) {
+        auto& v = tiles[tile_key(leaf.origin, base, tile_voxels)];
+        if (v.empty()) v.resize(nc);
+        v[leaf.constituent].expand(leaf.active_box);
+    }
+    std::uint64_t dense = 0;
+    for (const auto& [key, v] : tiles)
+        for (const auto& b : v) dense += b.volume();
+    return {dense, tiles.size()};
+}
+
+}  // namespace
+
+VolumeTiling choose_volume_tiling(const std::vector<VolumeLeaf>& leaves, std::size_t nc, const VdbOptions& options) {
+    VoxelBox all;
+    for (const auto& leaf : leaves) all.expand(leaf.active_box);
+    VolumeTiling best;
+    best.base = all.empty() ? VoxelCoord{0, 0, 0} : block_floor(all.min);
+    const auto [untiled, one] = dense_for(leaves, nc, best.base, 0);
+    best.dense_voxels = best.dense_voxels_untiled = untiled;
+    best.tiles = one;
+    if (options.tile_voxels == -1 || all.empty()) return best;
+    // A lattice of cubes of `t` voxels, centred on the grids' bounding box (so that a
+    // shell is cut symmetrically, without slivers), aligned to blocks.
+    const auto lattice = [&](int t) {
+        VoxelCoord base{};
+        for (int a = 0; a < 3; ++a) {
+            const int extent = all.max[a] - all.min[a] + 1;
+            const int n = (extent + t - 1) / t;
+            base[a] = all.min[a] - (n * t - extent) / 2;
+        }
+        return block_floor(base);
+    };
+    if (options.tile_voxels > 0) {
+        const VoxelCoord base = lattice(options.tile_voxels);
+        const auto [dense, n] = dense_for(leaves, nc, base, options.tile_voxels);
+        if (n > std::size_t(options.max_tiles))
+            throw VdbError("--tile-voxels = " + std::to_string(options.tile_voxels) + " gives " + std::to_string(n) +
+                           " tiles > --max-tiles = " + std::to_string(options.max_tiles) +
+                           "; use larger tiles or raise --max-tiles");
+        best.tile_voxels = options.tile_voxels;
+        best.base = base;
+        best.dense_voxels = dense;
+        best.tiles = n;
+        return best;
+    }
+    // Automatic: n = 2, 3, ... cubes across the largest extent, while the lattice can
+    // stay within max_tiles (a shell fills about n² of the n³ cubes). The cheapest
+    // lattice whose dense boxes fit --max-dense-mb wins; if none fits, the cheapest.
+    const int extent = int(std::max({all.dim(0), all.dim(1), all.dim(2)}));
+    const double limit = options.max_dense_mb * 1024.0 * 1024.0;
+    const auto cost_of = [](const VolumeTiling& c) {
+        return double(c.dense_voxels) * sizeof(float) + double(c.tiles) * double(kTileOverheadBytes);
+    };
+    const auto fits = [&](const VolumeTiling& c) { return double(c.dense_voxels) * sizeof(float) <= limit; };
+    const auto better = [&](const VolumeTiling& a, const VolumeTiling& b) {
+        if (fits(a) != fits(b)) return fits(a);
+        return cost_of(a) < cost_of(b);
+    };
+    int previous_t = 0;
+    for (int n = 2; n * n <= 4 * options.max_tiles; ++n) {
+        const int t = ((extent + n - 1) / n + kDim - 1) / kDim * kDim;
+        if (t == previous_t || t < kDim) continue;
+        previous_t = t;
+        VolumeTiling c = best;
+        c.tile_voxels = t;
+        c.base = lattice(t);
+        std::tie(c.dense_voxels, c.tiles) = dense_for(leaves, nc, c.base, t);
+        if (c.tiles > std::size_t(options.max_tiles)) break;
+        if (better(c, best)) best = c;
+    }
+    return best;
+}
+
+std::size_t VolumePlan::tile_of(const VoxelCoord& origin) const {
+    const std::uint64_t key = tile_key(origin, tiling.base, tiling.tile_voxels);
+    const auto it = std::lower_bound(tile_keys.begin(), tile_keys.end(), key);
+    if (it == tile_keys.end() || *it != key) throw std::out_of_range("VolumePlan::tile_of: a block outside every tile");
+    return std::size_t(it - tile_keys.begin());
+}
+
+VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLeaf>& leaves) {
+    const std::size_t nc = layout.constituents.size();
+    VolumePlan plan;
+    plan.layout = layout;
+    plan.tiling = choose_volume_tiling(leaves, nc, layout.options);
+    // Tiles in lattice order (the key sorts as (i, j, k)), so file names are stable.
+    for (const auto& leaf : leaves) plan.tile_keys.push_back(tile_key(leaf.origin, plan.tiling.base, plan.tiling.tile_voxels));
+    std::sort(plan.tile_keys.begin(), plan.tile_keys.end());
+    plan.tile_keys.erase(std::unique(plan.tile_keys.begin(), plan.tile_keys.end()), plan.tile_keys.end());
+    if (plan.tile_keys.empty()) plan.tile_keys.push_back(0);
+    const std::size_t tiles = plan.tile_keys.size();
+
+    struct Acc {
+        VoxelBox box;
+        std::uint64_t active = 0, leaves = 0;
+    };
+    std::vector<Acc> acc(tiles * nc);
+    for (const auto& leaf : leaves) {
+        Acc& a = acc[plan.tile_of(leaf.origin) * nc + leaf.constituent];
+        a.box.expand(leaf.active_box);
+        a.active += leaf.active_voxels;
+        ++a.leaves;
+    }
+    VdbStats& s = plan.stats;
+    s.voxel_size = layout.voxel_size;
+    s.unit = layout.options.unit;
+    s.tiles = tiles;
+    for (std::size_t t = 0; t < tiles; ++t) {
+        for (std::size_t c = 0; c < nc; ++c) {
+            const Acc& a = acc[t * nc + c];
+            if (a.active == 0) continue;
+            VdbGridStats g;
+            g.name = layout.constituents[c].name;
+            g.tile = t;
+            g.active_voxels = a.active;
+            g.bbox = {a.box.min[0], a.box.min[1], a.box.min[2], a.box.max[0], a.box.max[1], a.box.max[2]};
+            g.dense_voxels = a.box.volume();
+            g.memory_bytes = std::uint64_t(double(a.leaves) * kLeafBytes);
+            s.active_voxels += g.active_voxels;
+            s.memory_bytes += g.memory_bytes;
+            s.dense_bytes += g.dense_voxels * sizeof(float);
+            s.grids.push_back(g);
+            plan.grid_constituent.push_back(c);
+        }
+    }
+    s.dense_bytes_untiled = plan.tiling.dense_voxels_untiled * sizeof(float);
+    const std::string where = "the " + std::string(region_name(layout.options.region)) + " region";
+    if (s.active_voxels == 0)
+        throw VdbError("region outside the atmosphere: " + where +
+                       " holds no voxel with a density above the activity threshold (--tolerance = " +
+                       detail::fmt(layout.options.tolerance) + ")");
+    const double dense_mb = double(s.dense_bytes) / (1024.0 * 1024.0);
+    if (dense_mb > layout.options.max_dense_mb)
+        throw VdbError("the dense bounding boxes Blender 3.4 would allocate need " + detail::mib(double(s.dense_bytes)) +
+                       " (" + std::to_string(s.tiles) + " tile(s)) > --max-dense-mb = " +
+                       detail::fmt(layout.options.max_dense_mb) + "; use --voxel-size " +
+                       detail::suggest_voxel(layout, dense_mb / layout.options.max_dense_mb, 3.0) +
+                       " or more, --region view or box, or raise --max-dense-mb");
+    return plan;
+}
+
+VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const VolumeSampler sampler(layout);
+    const std::vector<VolumeLeaf> leaves = sample_volume(sampler, run);
+    VolumePlan plan = make_volume_plan(layout, leaves);
+    plan.stats.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return plan;
+}
+
+}  // namespace airmass
