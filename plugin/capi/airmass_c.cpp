@@ -7,139 +7,15 @@
 // Blender's main-thread rules both need that).
 #include "airmass/airmass_c.h"
 
-#include <algorithm>
-#include <atomic>
-#include <chrono>
-#include <cmath>
-#include <cstdlib>
-#include <cstring>
-#include <exception>
-#include <filesystem>
-#include <future>
-#include <limits>
-#include <new>
-#include <optional>
-#include <stdexcept>
-#include <string>
-#include <thread>
-#include <vector>
+#include "capi_internal.hpp"
 
-#include <nlohmann/json.hpp>
-
-#include "airmass/atmosphere.hpp"
-#include "airmass/chapman.hpp"
-#include "airmass/color.hpp"
-#include "airmass/geometry.hpp"
-#include "airmass/image_io.hpp"
-#include "airmass/optical_depth.hpp"
-#include "airmass/progress.hpp"
-#include "airmass/scene.hpp"
-#include "airmass/scene_io.hpp"
-#include "airmass/sky.hpp"
-#if AIRMASS_C_HAVE_VDB
-#include "airmass/vdb_export.hpp"
-#endif
+#include "airmass/simd.hpp"
 
 #ifndef AIRMASS_VERSION_STRING
 #define AIRMASS_VERSION_STRING "unknown"
 #endif
 
-struct airmass_cancel_token {
-    airmass::CancelFlag flag;
-};
-
-namespace {
-
-using airmass::Scene;
-
-// An error detected by this shell itself, with the status it maps to.
-struct AbiError : std::runtime_error {
-    AbiError(airmass_status s, const std::string& what) : std::runtime_error(what), status(s) {}
-    airmass_status status;
-};
-
-void write_message(char* message, std::size_t size, const std::string& text) noexcept {
-    if (!message || size == 0) return;
-    const std::size_t n = std::min(size - 1, text.size());
-    std::memcpy(message, text.data(), n);
-    message[n] = '\0';
-}
-
-// Runs `body` (returning nothing) and converts whatever it throws into a status + message.
-template <class Body>
-int32_t guarded(char* message, std::size_t message_size, Body&& body) noexcept {
-    try {
-        write_message(message, message_size, "");
-        body();
-        return AIRMASS_OK;
-    } catch (const AbiError& e) {
-        write_message(message, message_size, e.what());
-        return e.status;
-    } catch (const airmass::Cancelled& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_CANCELLED;
-    } catch (const airmass::SceneError& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_SCENE_ERROR;
-    } catch (const airmass::SkyError& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_SETTINGS_ERROR;
-    } catch (const airmass::ImageWriteError& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_IO_ERROR;
-#if AIRMASS_C_HAVE_VDB
-    } catch (const airmass::VdbError& e) {
-        // vdb_export reports bad options, limits and unwritable outputs with one type; an
-        // output problem names the path and says "write"/"directory".
-        const std::string what = e.what();
-        const bool io = what.find("cannot") != std::string::npos &&
-                        (what.find("write") != std::string::npos || what.find("director") != std::string::npos ||
-                         what.find("create") != std::string::npos || what.find("rename") != std::string::npos);
-        write_message(message, message_size, what);
-        return io ? AIRMASS_IO_ERROR : AIRMASS_SETTINGS_ERROR;
-#endif
-    } catch (const std::filesystem::filesystem_error& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_IO_ERROR;
-    } catch (const std::invalid_argument& e) {
-        write_message(message, message_size, e.what());
-        return AIRMASS_SETTINGS_ERROR;
-    } catch (const std::bad_alloc&) {
-        write_message(message, message_size, "out of memory");
-        return AIRMASS_INTERNAL_ERROR;
-    } catch (const std::exception& e) {
-        write_message(message, message_size, std::string("internal error: ") + e.what());
-        return AIRMASS_INTERNAL_ERROR;
-    } catch (...) {
-        write_message(message, message_size, "internal error: unknown exception");
-        return AIRMASS_INTERNAL_ERROR;
-    }
-}
-
-char* duplicate(const std::string& s) {
-    char* out = static_cast<char*>(std::malloc(s.size() + 1));
-    if (!out) throw std::bad_alloc();
-    std::memcpy(out, s.c_str(), s.size() + 1);
-    return out;
-}
-
-template <class Struct>
-void require_struct(const Struct* p, const char* what) {
-    if (!p) throw AbiError(AIRMASS_INVALID_ARGUMENT, std::string(what) + ": NULL pointer");
-    if (p->struct_size != sizeof(Struct))
-        throw AbiError(AIRMASS_INVALID_ARGUMENT,
-                       std::string(what) + ".struct_size = " + std::to_string(p->struct_size) + ": this library (ABI " +
-                           std::to_string(AIRMASS_C_ABI_VERSION) + ") expects " + std::to_string(sizeof(Struct)) +
-                           " — host and library versions differ");
-}
-
-std::string number(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
-
-bool given(double v) { return !std::isnan(v); }
+namespace airmass::capi {
 
 // ---- scenes ---------------------------------------------------------------------------------
 
@@ -182,7 +58,6 @@ void apply_constituent_override(Scene& scene, const airmass_constituent_override
     }
 }
 
-// The scene a spec describes: parsed, overridden and validated (SceneError names the field).
 Scene build_scene(const airmass_scene_spec* spec) {
     require_struct(spec, "scene_spec");
     const bool has_toml = spec->toml != nullptr;
@@ -263,75 +138,12 @@ airmass::ChapmanMethod chapman_from(const char* name, airmass::ChapmanMethod fal
     return *m;
 }
 
-// ---- long calls -----------------------------------------------------------------------------
+}  // namespace airmass::capi
 
-// Runs `work(cancel, done_fraction)` on a worker thread; the calling thread reports progress
-// through the job's callback and turns a nonzero return, or the host's cancel token, into a
-// request on the worker's own flag (the host's token is only read, never written, so it can
-// be reused). `work` polls the flag and stores its progress (0..1) in the atomic. The call
-// counts as cancelled only if the work stopped (threw Cancelled); work that finished before
-// it saw the request succeeds.
-template <class Work>
-void run_job(const airmass_job* job, Work&& work) {
-    if (job) require_struct(job, "job");
-    const airmass::CancelFlag* host = job && job->cancel ? &job->cancel->flag : nullptr;
-    if (host && host->requested()) throw airmass::Cancelled("cancelled before it started");
-    std::atomic<double> fraction{0.0};
-    if (!job || !job->progress) {
-        airmass::CancelFlag own;
-        work(host ? *host : own, fraction);
-        return;
-    }
-    airmass::CancelFlag worker_cancel;
-    auto future = std::async(std::launch::async, [&] { work(worker_cancel, fraction); });
-    double reported = -1.0;
-    bool stop = false;
-    while (future.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready) {
-        const double f = fraction.load(std::memory_order_relaxed);
-        if (f != reported && !stop) {
-            reported = f;
-            if (job->progress(job->user, f) != 0) stop = true;
-        }
-        if (stop || (host && host->requested())) worker_cancel.request();
-    }
-    future.get();  // rethrows the worker's exception (Cancelled when it stopped)
-    job->progress(job->user, 1.0);
-}
-
-#if AIRMASS_C_HAVE_VDB
-airmass::VdbOptions vdb_options_from(const airmass_vdb_options* o) {
-    require_struct(o, "vdb_options");
-    airmass::VdbOptions v;
-    const std::string region = o->region ? o->region : "planet";
-    if (region == "planet") v.region = airmass::VdbRegion::planet;
-    else if (region == "view") v.region = airmass::VdbRegion::view;
-    else if (region == "box") v.region = airmass::VdbRegion::box;
-    else throw AbiError(AIRMASS_INVALID_ARGUMENT, "--region = \"" + region + "\": must be planet, view or box");
-    const std::string unit = o->unit ? o->unit : "km";
-    if (unit == "km") v.unit = airmass::LengthUnit::km;
-    else if (unit == "m") v.unit = airmass::LengthUnit::m;
-    else throw AbiError(AIRMASS_INVALID_ARGUMENT, "--units = \"" + unit + "\": must be km or m");
-    v.origin = o->origin_center ? airmass::PlanetOrigin::center : airmass::PlanetOrigin::surface;
-    if (given(o->voxel_size) && o->voxel_size > 0.0) v.voxel_size = o->voxel_size;
-    else if (given(o->voxel_size) && o->voxel_size < 0.0)
-        throw airmass::VdbError("--voxel-size " + number(o->voxel_size) + ": must be > 0 (or 0 for automatic)");
-    std::copy(o->box, o->box + 6, v.box.begin());
-    if (given(o->tolerance)) v.tolerance = o->tolerance;
-    if (given(o->max_dense_mb)) v.max_dense_mb = o->max_dense_mb;
-    v.tile_voxels = o->tile_voxels;
-    return v;
-}
-#endif
-
-#if !AIRMASS_C_HAVE_VDB
-[[noreturn]] void no_vdb() {
-    throw AbiError(AIRMASS_UNSUPPORTED, "this libairmass_c was built without vdb_export (no OpenVDB support)");
-}
-#endif
-
-}  // namespace
+using namespace airmass::capi;
 
 extern "C" {
+
 
 int32_t airmass_abi_version(void) { return AIRMASS_C_ABI_VERSION; }
 
@@ -354,6 +166,34 @@ const char* airmass_status_name(int32_t status) {
 int32_t airmass_has_vdb(void) { return AIRMASS_C_HAVE_VDB ? 1 : 0; }
 
 void airmass_string_free(char* s) { std::free(s); }
+
+int32_t airmass_build_info(char** out, char* message, size_t message_size) {
+    return guarded(message, message_size, [&] {
+        if (!out) throw AbiError(AIRMASS_INVALID_ARGUMENT, "out: NULL pointer");
+#if defined(_WIN32)
+        const char* platform = "windows-x64";
+#elif defined(__APPLE__) && defined(__aarch64__)
+        const char* platform = "macos-arm64";
+#elif defined(__APPLE__)
+        const char* platform = "macos-x64";
+#else
+        const char* platform = "linux-x64";
+#endif
+        nlohmann::ordered_json j;
+        j["version"] = AIRMASS_VERSION_STRING;
+        j["abi"] = AIRMASS_C_ABI_VERSION;
+        j["platform"] = platform;
+        j["simd"] = std::string(airmass::simd_target_name(airmass::simd_target()));
+#if defined(__clang__)
+        j["compiler"] = std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+        j["compiler"] = std::string("gcc ") + __VERSION__;
+#else
+        j["compiler"] = "unknown";
+#endif
+        *out = duplicate(j.dump());
+    });
+}
 
 int32_t airmass_preset_names(char** out, char* message, size_t message_size) {
     return guarded(message, message_size, [&] {
@@ -424,11 +264,12 @@ void airmass_sky_options_init(airmass_sky_options* options) {
     options->multiple_scattering = d.multiple_scattering ? 1 : 0;
 }
 
-int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_options* options, const char* path,
-                              const airmass_job* job, char* message, size_t message_size) {
+int32_t airmass_render_sky(const airmass_scene_spec* spec, const airmass_sky_options* options, float* rgba,
+                           size_t float_count, const airmass_job* job, char** metadata_json, char* message,
+                           size_t message_size) {
     return guarded(message, message_size, [&] {
         require_struct(options, "sky_options");
-        if (!path || path[0] == '\0') throw AbiError(AIRMASS_INVALID_ARGUMENT, "path: empty");
+        if (!rgba) throw AbiError(AIRMASS_INVALID_ARGUMENT, "rgba: NULL pointer");
         const Scene scene = build_scene(spec);
         airmass::SkySettings settings;
         settings.width = options->width;
@@ -441,8 +282,10 @@ int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_
         settings.grid = options->grid;
         settings.multiple_scattering = options->multiple_scattering != 0;
         airmass::validate(settings);
-        // Fail on an unwritable destination before the render, not after it.
-        airmass::check_exr_destination(path);
+        const std::size_t expected = std::size_t(settings.width) * std::size_t(settings.height) * 4;
+        if (float_count != expected)
+            throw AbiError(AIRMASS_INVALID_ARGUMENT, "float_count = " + std::to_string(float_count) +
+                                                         ": must be width x height x 4 = " + std::to_string(expected));
         airmass::FloatImage image;
         run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
             std::atomic<std::size_t> units{0};
@@ -453,9 +296,26 @@ int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_
                 if (total > 0) fraction.store(std::min(1.0, double(done) / double(total)), std::memory_order_relaxed);
             };
             image = airmass::render_sky(scene, settings, hooks);
-            if (cancel.requested()) throw airmass::Cancelled("sky: cancelled; no file written");
+            if (cancel.requested()) throw airmass::Cancelled("sky: cancelled");
         });
-        airmass::write_exr_atomic(path, image, airmass::sky_metadata(scene, settings));
+        if (image.width != settings.width || image.height != settings.height || image.channels < 3)
+            throw std::runtime_error("render_sky returned an image of an unexpected size");
+        std::string meta;
+        if (metadata_json) {
+            nlohmann::ordered_json j = nlohmann::ordered_json::object();
+            for (const auto& [key, value] : airmass::sky_metadata(scene, settings)) j[key] = value;
+            meta = j.dump();
+        }
+        const std::size_t pixels = std::size_t(image.width) * image.height;
+        for (std::size_t i = 0; i < pixels; ++i) {
+            const float* px = image.pixels.data() + i * std::size_t(image.channels);
+            float* out = rgba + i * 4;
+            out[0] = px[0];
+            out[1] = px[1];
+            out[2] = px[2];
+            out[3] = 1.0f;
+        }
+        if (metadata_json) *metadata_json = duplicate(meta);
     });
 }
 
@@ -508,74 +368,5 @@ int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char
     });
 }
 
-void airmass_vdb_options_init(airmass_vdb_options* options) {
-    if (!options) return;
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    *options = airmass_vdb_options{};
-    options->struct_size = sizeof(airmass_vdb_options);
-    options->region = "planet";
-    options->unit = "km";
-    options->origin_center = 0;
-    options->voxel_size = nan;
-    options->tolerance = nan;
-    options->max_dense_mb = nan;
-    options->tile_voxels = 0;
-}
-
-int32_t airmass_write_vdb(const airmass_scene_spec* spec, const airmass_vdb_options* options, const char* path,
-                          const airmass_job* job, char** stats_json, char* message, size_t message_size) {
-    return guarded(message, message_size, [&] {
-#if AIRMASS_C_HAVE_VDB
-        const airmass::VdbOptions vdb = vdb_options_from(options);
-        if (!path || path[0] == '\0') throw AbiError(AIRMASS_INVALID_ARGUMENT, "path: empty");
-        const Scene scene = build_scene(spec);
-        airmass::VdbStats stats;
-        run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
-            airmass::VdbRunOptions run;
-            run.cancel = &cancel;
-            run.progress = [&](double f) { fraction.store(std::clamp(f, 0.0, 1.0), std::memory_order_relaxed); };
-            stats = airmass::export_vdb(scene, vdb, path, run);
-        });
-        if (stats_json) {
-            nlohmann::json j;
-            j["files"] = nlohmann::json::array();
-            for (const auto& f : stats.files) j["files"].push_back(f.string());
-            j["voxel_size"] = stats.voxel_size;
-            j["unit"] = std::string(airmass::length_unit_name(stats.unit));
-            j["tiles"] = stats.tiles;
-            j["active_voxels"] = stats.active_voxels;
-            j["dense_bytes"] = stats.dense_bytes;
-            j["memory_bytes"] = stats.memory_bytes;
-            j["file_bytes"] = stats.file_bytes;
-            j["build_seconds"] = stats.build_seconds;
-            j["summary"] = stats.summary();
-            nlohmann::json grids = nlohmann::json::array();
-            for (const auto& g : stats.grids)
-                grids.push_back({{"name", g.name}, {"tile", g.tile}, {"active_voxels", g.active_voxels},
-                                 {"dense_voxels", g.dense_voxels}});
-            j["grids"] = grids;
-            *stats_json = duplicate(j.dump());
-        }
-#else
-        (void)spec, (void)options, (void)path, (void)job, (void)stats_json;
-        no_vdb();
-#endif
-    });
-}
-
-int32_t airmass_analytic_density_json(const airmass_scene_spec* spec, const airmass_vdb_options* options,
-                                      char** json, char* message, size_t message_size) {
-    return guarded(message, message_size, [&] {
-#if AIRMASS_C_HAVE_VDB
-        const airmass::VdbOptions vdb = vdb_options_from(options);
-        if (!json) throw AbiError(AIRMASS_INVALID_ARGUMENT, "json: NULL pointer");
-        const Scene scene = build_scene(spec);
-        *json = duplicate(airmass::analytic_density_json(scene, vdb));
-#else
-        (void)spec, (void)options, (void)json;
-        no_vdb();
-#endif
-    });
-}
 
 }  // extern "C"

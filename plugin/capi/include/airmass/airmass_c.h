@@ -40,7 +40,11 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 2  /* 2: airmass_sky_options.multiple_scattering */
+#define AIRMASS_C_ABI_VERSION 3  /* 2: airmass_sky_options.multiple_scattering
+                                    3: no files: the sky and the volume grids are returned as
+                                       float buffers that the host writes (Blender's image API,
+                                       its own OpenVDB module); airmass_write_sky_exr and
+                                       airmass_write_vdb are gone */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -58,10 +62,17 @@ typedef enum airmass_status {
 AIRMASS_C_API int32_t airmass_abi_version(void);         /* AIRMASS_C_ABI_VERSION         */
 AIRMASS_C_API const char* airmass_version_string(void);  /* library version, e.g. "0.1.0" */
 AIRMASS_C_API const char* airmass_status_name(int32_t status); /* "AIRMASS_OK", ...       */
-/* 1 when the library was built with vdb_export (airmass_write_vdb, airmass_analytic_density_json). */
+/* 1 when the library has the volume functions ("Volumes" below: airmass_vdb_plan,
+ * airmass_vdb_grid_values, airmass_analytic_density_json). The library never writes a .vdb
+ * itself: the host writes the grids it returns with its own OpenVDB. */
 AIRMASS_C_API int32_t airmass_has_vdb(void);
 
 AIRMASS_C_API void airmass_string_free(char* s);
+
+/* What this library file is, as JSON: {"version", "abi", "platform" ("linux-x64",
+ * "windows-x64", "macos-arm64", ...), "simd" (the kernels this CPU runs: "avx2+fma" or
+ * "baseline x86-64"), "compiler"}. For hosts' "about" boxes and bug reports. */
+AIRMASS_C_API int32_t airmass_build_info(char** out, char* message, size_t message_size);
 
 /* Newline-separated lists: preset names ("earth\nmars\n...") and Chapman methods. */
 AIRMASS_C_API int32_t airmass_preset_names(char** out, char* message, size_t message_size);
@@ -148,11 +159,16 @@ typedef struct airmass_sky_options {
 
 AIRMASS_C_API void airmass_sky_options_init(airmass_sky_options* options);
 
-/* Writes the sky as a 32-bit float EXR in Blender's equirectangular convention (docs/sky.md),
- * atomically. `job` may be NULL. */
-AIRMASS_C_API int32_t airmass_write_sky_exr(const airmass_scene_spec* spec, const airmass_sky_options* options,
-                                            const char* path, const airmass_job* job, char* message,
-                                            size_t message_size);
+/* Renders the sky into the caller's buffer `rgba`: options->width × height pixels (height 0:
+ * width / 2), 4 floats each (linear Rec.709 R, G, B in the sky texture's units, A = 1), rows from
+ * the top (row 0 looks straight up; Blender's image pixels start at the bottom row, so the host
+ * flips), Blender's equirectangular convention (docs/sky.md). `float_count` must be exactly
+ * width·height·4. When `metadata_json` is not NULL it receives a JSON object of the strings an
+ * EXR of this sky carries ("airmass:version", "airmass:scene", ...) for the host to store.
+ * `job` may be NULL. On failure or cancel the buffer's contents are unspecified. */
+AIRMASS_C_API int32_t airmass_render_sky(const airmass_scene_spec* spec, const airmass_sky_options* options,
+                                         float* rgba, size_t float_count, const airmass_job* job,
+                                         char** metadata_json, char* message, size_t message_size);
 
 /* ---- Sunlight at the observer (for a Sun lamp) ------------------------------------------------ */
 
@@ -171,28 +187,92 @@ typedef struct airmass_sun_light {
 AIRMASS_C_API int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char* chapman,
                                                     airmass_sun_light* out, char* message, size_t message_size);
 
-/* ---- Volumes (vdb_export) ------------------------------------------------------------------------ */
+/* ---- Volumes (vdb_export's OpenVDB-free volume layer) ---------------------------------------------
+ *
+ * The atmosphere as sparse float grids, one per active constituent (docs/vdb.md). The library
+ * makes every decision — region, voxel size, active voxels, tiling, metadata, file names — and
+ * computes the values; the HOST builds the OpenVDB grids and writes the files with its own
+ * OpenVDB (the Blender add-on: Blender's `openvdb` / `pyopenvdb` module), which gives exactly the
+ * grids `airmass vdb` writes:
+ *   1. airmass_vdb_plan      → the plan (JSON): every grid and file, without the voxels;
+ *   2. airmass_vdb_grid_values, per grid (or per part of a grid) → its densities as a dense block;
+ *      the host copies each block into its grid (`grid.copyFromArray(block, ijk=min,
+ *      tolerance=0)`), sets the grid's transform, class and metadata from the plan, and writes
+ *      each file of the plan.
+ * Both calls take the same spec and options; the block call resolves them again (cheap) and
+ * samples only its box. Lengths are in the chosen unit (km by default). */
 
 typedef struct airmass_vdb_options {
     uint32_t struct_size;
     const char* region;       /* "planet" | "view" (needs the spec's camera) | "box"          */
     const char* unit;         /* "km" | "m"                                                    */
     int32_t origin_center;    /* 0: origin on the surface below the observer; 1: planet centre */
-    double voxel_size;        /* in `unit`; NaN or ≤ 0: automatic                              */
+    double voxel_size;        /* in `unit`; NaN or 0: automatic (< 0 is an error)              */
     double box[6];            /* region "box": xmin, ymin, zmin, xmax, ymax, zmax in `unit`     */
     double tolerance;         /* NaN: default (1e-4)                                            */
     double max_dense_mb;      /* NaN: default (1024)                                            */
     int32_t tile_voxels;      /* 0 automatic tiling, -1 one tile, N > 0 tiles of N voxels       */
 } airmass_vdb_options;
 
+/* Defaults: region "planet", unit "km", origin on the surface, automatic voxel size, default
+ * tolerance and dense limit (NaN), automatic tiling. */
 AIRMASS_C_API void airmass_vdb_options_init(airmass_vdb_options* options);
 
-/* Writes the grids (one per active constituent; several files when tiled) atomically and,
- * when `stats_json` is not NULL, returns {"files": [...], "voxel_size", "unit", "tiles",
- * "active_voxels", "dense_bytes", "memory_bytes", "file_bytes", "summary"}. */
-AIRMASS_C_API int32_t airmass_write_vdb(const airmass_scene_spec* spec, const airmass_vdb_options* options,
-                                        const char* path, const airmass_job* job, char** stats_json,
-                                        char* message, size_t message_size);
+/* The plan of the volume, as JSON in `*plan_json` (free with airmass_string_free). Runs the
+ * sampling pass (a long call: progress and cancel through `job`, which may be NULL) and refuses,
+ * with the option's name and a suggestion, what `airmass vdb` refuses (dense boxes above
+ * max_dense_mb, a region outside the atmosphere, ...). `file_stem` names the files (NULL:
+ * "atmosphere"). The object (docs/vdb.md, "Host-written volumes"):
+ *   "format": "airmass-vdb-plan", "format_version": 1, "unit", "region", "voxel_size",
+ *   "voxel_size_automatic",
+ *   "transform": {"voxel_size": [v, v, v], "translation": [tx, ty, tz],
+ *                 "matrix": [[v,0,0,0],[0,v,0,0],[0,0,v,0],[tx,ty,tz,1]], "convention"}:
+ *       OpenVDB's linear transform, world = translation + v·(i, j, k) (translation is 0 today);
+ *       the value of voxel (i, j, k) is the density at that world point, which OpenVDB takes as
+ *       the centre of the voxel's cell [i − ½, i + ½]·v (Blender < 5.0 renders it half a voxel
+ *       off: shift the Volume object by −v/2);
+ *   "grid_class": "fog volume", "value_type": "float", "background": 0,
+ *   "request_bounds": {"min": [3 ints], "max": [3 ints]}: the boxes airmass_vdb_grid_values takes,
+ *   "tile_count", "tiling": {"tile_voxels", "base"},
+ *   "grids": [{"index", "name", "tile", "bbox_min", "bbox_max" (inclusive index bounding box of
+ *       the active voxels), "dim", "active_voxels" (exact), "dense_voxels", "dense_bytes",
+ *       "memory_bytes_estimate", "metadata": {key: value}, "metadata_types": {key: "string" |
+ *       "double" | "int32" | "vec3d"}}, ...] — tile-major, the grid name is the constituent;
+ *   "files": [{"name", "tile", "grids": [indices into "grids"], "metadata", "metadata_types"}]:
+ *       one .vdb per tile with the file-level metadata;
+ *   "manifest": null, or {"name", "text"} for a tiled volume (the tiles manifest to write beside);
+ *   "active_voxels", "dense_bytes", "dense_bytes_untiled", "memory_bytes_estimate",
+ *   "build_seconds", "summary" (the report `airmass vdb` prints). */
+AIRMASS_C_API int32_t airmass_vdb_plan(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                       const char* file_stem, const airmass_job* job, char** plan_json,
+                                       char* message, size_t message_size);
+
+/* Which values airmass_vdb_grid_values returns: one grid (= constituent) over an index box. */
+typedef struct airmass_vdb_block {
+    uint32_t struct_size;
+    const char* grid;  /* the grid's name: a plan "grids"[].name                                */
+    int32_t min[3];    /* inclusive index box, within the plan's "request_bounds"; a grid's     */
+    int32_t max[3];    /*   "bbox_min"/"bbox_max" give the whole grid, or split it (along i)    */
+    int32_t threads;   /* workers; 0: all hardware threads                                      */
+} airmass_vdb_block;
+
+/* grid NULL, an empty box (min 0, max −1), threads 0. */
+AIRMASS_C_API void airmass_vdb_block_init(airmass_vdb_block* block);
+
+/* The densities of block->grid at every voxel of the box, into the caller's `values`
+ * (`float_count` must be exactly nx·ny·nz, n = max − min + 1 per axis): values[(i·ny + j)·nz + k]
+ * is voxel min + (i, j, k) — C order with k (z) fastest, i.e. a numpy float32 array a[i][j][k] of
+ * shape (nx, ny, nz), which is what OpenVDB's Python `grid.copyFromArray(a, ijk=min)` reads.
+ * Inactive voxels are 0 (the grids' background), active ones are > 0, so copyFromArray with
+ * tolerance 0 activates exactly the voxels `airmass vdb` activates. Over a plan grid's box the
+ * values are that tile's grid: blocks of one grid may be requested in any number of parts (the
+ * plan's boxes split at multiples of 8 in i keep OpenVDB's leaves whole). A long call: progress
+ * and cancel through `job` (may be NULL). Errors name the field and the allowed range: an
+ * unknown grid, an empty box, a box outside "request_bounds", a wrong float_count. On failure
+ * the buffer's contents are unspecified. */
+AIRMASS_C_API int32_t airmass_vdb_grid_values(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                              const airmass_vdb_block* block, float* values, size_t float_count,
+                                              const airmass_job* job, char* message, size_t message_size);
 
 /* The analytic density description (docs/vdb.md, "Analytic density") as JSON. */
 AIRMASS_C_API int32_t airmass_analytic_density_json(const airmass_scene_spec* spec,

@@ -1,0 +1,213 @@
+/* The C ABI's own tests, in C (the header must be plain C), built for every platform the
+ * add-on ships: natively on Linux, under qemu-x86_64 -cpu Nehalem (a CPU without AVX), and
+ * cross-built for Windows and run under wine64 (tests/capi/CMakeLists.txt, docs/portable.md).
+ *
+ *   capi_selftest [--pixels FILE] [--expect-simd NAME]
+ *
+ * Prints one line per check and finally "N passed, M failed"; exits nonzero on any failure.
+ * --pixels writes the small test sky (64 x 32 RGBA floats, earth preset, sun at 20 degrees)
+ * as text, one value per line with 9 significant digits, so that a Linux and a Windows run
+ * can be compared value by value (tests/portable/run_windows_selftest.sh); --expect-simd checks
+ * that airmass_build_info names the kernels NAME ("baseline" under a pre-AVX CPU). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "airmass/airmass_c.h"
+
+static int passed = 0, failed = 0;
+
+static void check(int ok, const char* what, const char* detail) {
+    if (ok) {
+        ++passed;
+        printf("ok   %s\n", what);
+    } else {
+        ++failed;
+        printf("FAIL %s%s%s\n", what, detail && detail[0] ? ": " : "", detail ? detail : "");
+    }
+    fflush(stdout);
+}
+
+static int contains(const char* haystack, const char* needle) { return haystack && strstr(haystack, needle) != NULL; }
+
+enum { W = 64, H = 32 };
+
+static int progress_calls = 0;
+static double last_fraction = -1.0;
+static int32_t on_progress(void* user, double fraction) {
+    (void)user;
+    ++progress_calls;
+    last_fraction = fraction;
+    return 0;
+}
+static int32_t cancel_at_once(void* user, double fraction) {
+    (void)user, (void)fraction;
+    return 1;
+}
+
+int main(int argc, char** argv) {
+    const char* pixels_path = NULL;
+    const char* expect_simd = NULL;
+    for (int i = 1; i < argc; ++i) {
+        if (strcmp(argv[i], "--pixels") == 0 && i + 1 < argc) pixels_path = argv[++i];
+        else if (strcmp(argv[i], "--expect-simd") == 0 && i + 1 < argc) expect_simd = argv[++i];
+        else {
+            fprintf(stderr, "usage: capi_selftest [--pixels FILE] [--expect-simd baseline|avx2]\n");
+            return 2;
+        }
+    }
+    char msg[1024];
+    char detail[1400];
+
+    /* ---- version ---- */
+    check(airmass_abi_version() == AIRMASS_C_ABI_VERSION, "abi version matches the header", "");
+    check(airmass_version_string() && airmass_version_string()[0] != '\0', "version string", "");
+    check(strcmp(airmass_status_name(AIRMASS_SCENE_ERROR), "AIRMASS_SCENE_ERROR") == 0, "status names", "");
+    {
+        char* info = NULL;
+        const int32_t s = airmass_build_info(&info, msg, sizeof msg);
+        check(s == AIRMASS_OK && contains(info, "\"simd\""), "build info names the SIMD kernels in use", msg);
+        if (info) printf("     build info: %s\n", info);
+        if (expect_simd) check(contains(info, expect_simd), "the expected kernels run", info);
+        airmass_string_free(info);
+    }
+
+    /* ---- presets ---- */
+    {
+        char* names = NULL;
+        const int32_t s = airmass_preset_names(&names, msg, sizeof msg);
+        check(s == AIRMASS_OK && contains(names, "earth\n") && contains(names, "mars\n"), "preset names", msg);
+        airmass_string_free(names);
+    }
+
+    /* ---- scene validation names the field ---- */
+    airmass_scene_spec spec;
+    airmass_scene_spec_init(&spec);
+    spec.preset = "earth";
+    spec.planet_radius_m = -1.0;
+    {
+        const int32_t s = airmass_validate_scene(&spec, NULL, msg, sizeof msg);
+        snprintf(detail, sizeof detail, "status %d, message '%s'", (int)s, msg);
+        check(s == AIRMASS_SCENE_ERROR && contains(msg, "planet.radius_km"), "bad planet radius refused, field named",
+              detail);
+    }
+    airmass_scene_spec_init(&spec);
+    spec.preset = "earth";
+    spec.struct_size -= 8;
+    {
+        const int32_t s = airmass_validate_scene(&spec, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "struct_size"), "stale struct_size refused", msg);
+    }
+    airmass_scene_spec_init(&spec);
+    spec.preset = "no-such-preset";
+    {
+        const int32_t s = airmass_validate_scene(&spec, NULL, msg, sizeof msg);
+        check(s == AIRMASS_SCENE_ERROR && contains(msg, "no-such-preset") && contains(msg, "earth"),
+              "unknown preset refused, the available ones listed", msg);
+    }
+
+    /* ---- the sky into a buffer ---- */
+    airmass_scene_spec_init(&spec);
+    spec.preset = "earth";
+    spec.sun_elevation_deg = 20.0;
+    spec.sun_rotation_deg = 0.0;
+    airmass_sky_options opt;
+    airmass_sky_options_init(&opt);
+    opt.width = W;
+    opt.height = H;
+    opt.threads = 2;
+    const size_t n = (size_t)W * H * 4;
+    float* rgba = (float*)malloc(n * sizeof(float));
+    if (!rgba) return 3;
+    {
+        const int32_t s = airmass_render_sky(&spec, &opt, rgba, n - 4, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "float_count"), "wrong float_count refused", msg);
+    }
+    {
+        const int32_t s = airmass_render_sky(&spec, &opt, NULL, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "rgba"), "NULL buffer refused", msg);
+    }
+    {
+        airmass_sky_options bad = opt;
+        bad.width = -3;
+        const int32_t s = airmass_render_sky(&spec, &bad, rgba, n, NULL, NULL, msg, sizeof msg);
+        check(s != AIRMASS_OK && contains(msg, "width"), "negative width refused, field named", msg);
+    }
+    {
+        airmass_job job;
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.progress = on_progress;
+        char* meta = NULL;
+        const int32_t s = airmass_render_sky(&spec, &opt, rgba, n, &job, &meta, msg, sizeof msg);
+        check(s == AIRMASS_OK, "render_sky 64x32", msg);
+        check(progress_calls >= 1 && last_fraction == 1.0, "progress reported, ending at 1", "");
+        check(contains(meta, "airmass:version"), "metadata carries airmass:version", meta ? meta : "(null)");
+        airmass_string_free(meta);
+        int finite = 1, alpha = 1;
+        for (size_t i = 0; i < n; ++i) {
+            if (!isfinite(rgba[i]) || rgba[i] < 0.0f) finite = 0;
+            if (i % 4 == 3 && rgba[i] != 1.0f) alpha = 0;
+        }
+        check(finite, "every value finite and non-negative", "");
+        check(alpha, "alpha is 1", "");
+        /* The zenith row (top) is blue: B > G > R; the ground half is darker than the sky near the sun. */
+        const float* zenith = rgba + ((size_t)0 * W + W / 4) * 4;
+        snprintf(detail, sizeof detail, "zenith rgb %g %g %g", zenith[0], zenith[1], zenith[2]);
+        check(zenith[2] > zenith[1] && zenith[1] > zenith[0] && zenith[0] > 0.0f, "zenith is blue", detail);
+    }
+    if (pixels_path) {
+        FILE* f = fopen(pixels_path, "w");
+        check(f != NULL, "pixels file opened", pixels_path);
+        if (f) {
+            for (size_t i = 0; i < n; ++i) fprintf(f, "%.9g\n", rgba[i]);
+            fclose(f);
+        }
+    }
+
+    /* ---- cancellation ---- */
+    {
+        airmass_job job;
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.cancel = airmass_cancel_token_new();
+        airmass_cancel_token_request(job.cancel);
+        const int32_t s = airmass_render_sky(&spec, &opt, rgba, n, &job, NULL, msg, sizeof msg);
+        check(s == AIRMASS_CANCELLED, "a requested token cancels", msg);
+        airmass_cancel_token_free(job.cancel);
+        airmass_sky_options big = opt;
+        big.width = 512;
+        big.height = 256;
+        float* buf = (float*)malloc((size_t)512 * 256 * 4 * sizeof(float));
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.progress = cancel_at_once;
+        const int32_t s2 = buf ? airmass_render_sky(&spec, &big, buf, (size_t)512 * 256 * 4, &job, NULL, msg, sizeof msg)
+                               : -1;
+        check(s2 == AIRMASS_CANCELLED || s2 == AIRMASS_OK, "a progress callback returning 1 stops the render", msg);
+        free(buf);
+    }
+
+    /* ---- the sun lamp ---- */
+    {
+        airmass_sun_light sun;
+        memset(&sun, 0, sizeof sun);
+        sun.struct_size = sizeof sun;
+        const int32_t s = airmass_sun_light_at_observer(&spec, NULL, &sun, msg, sizeof msg);
+        snprintf(detail, sizeof detail, "status %d, rgb %g %g %g, top %g", (int)s, sun.irradiance_rgb[0],
+                 sun.irradiance_rgb[1], sun.irradiance_rgb[2], sun.irradiance_top_rgb[0]);
+        check(s == AIRMASS_OK && sun.irradiance_rgb[0] > sun.irradiance_rgb[2] && sun.irradiance_rgb[2] > 0.0 &&
+                  sun.irradiance_rgb[0] < sun.irradiance_top_rgb[0] && !sun.below_horizon,
+              "sunlight at 20 degrees: reddened, below the top-of-atmosphere value", detail);
+        spec.sun_elevation_deg = -10.0;
+        const int32_t s2 = airmass_sun_light_at_observer(&spec, NULL, &sun, msg, sizeof msg);
+        check(s2 == AIRMASS_OK && sun.below_horizon && sun.irradiance_rgb[0] == 0.0, "sun below the horizon: no light",
+              msg);
+        spec.sun_elevation_deg = 20.0;
+    }
+    free(rgba);
+
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed == 0 ? 0 : 1;
+}

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Runs the Windows build's C ABI self-test under wine64 (docs/portable.md) and compares the
+# sky it renders with the Linux run's, value by value, to 1e-5 relative.
+# Usage: run_windows_selftest.sh WINDOWS_LIB_DIR WINEPREFIX WINDOWS_PIXELS LINUX_PIXELS
+set -euo pipefail
+dir="$1"; prefix="$2"; win_pixels="$3"; linux_pixels="$4"
+wine=/usr/lib/wine/wine64
+[ -x "$wine" ] || { echo "FAIL: $wine not found (scripts/setup.sh installs wine64)"; exit 1; }
+[ -f "$dir/capi_selftest.exe" ] && [ -f "$dir/airmass_c.dll" ] || {
+  echo "FAIL: no Windows build in $dir (scripts/build-windows.sh makes it)"; exit 1; }
+mkdir -p "$prefix"
+export WINEPREFIX="$prefix" WINEDEBUG=-all WINEDLLOVERRIDES="mscoree,mshtml="
+# A fresh prefix is made on first use (≈ 15 s); wineboot first so its messages stay out of the test.
+[ -f "$prefix/system.reg" ] || "$wine" wineboot -i >/dev/null 2>&1 || true
+rm -f "$win_pixels"
+cd "$dir"
+"$wine" ./capi_selftest.exe --pixels "Z:${win_pixels}" | tr -d '\r'
+status=${PIPESTATUS[0]}
+[ "$status" -eq 0 ] || { echo "FAIL: capi_selftest.exe exited with $status"; exit 1; }
+[ -f "$linux_pixels" ] || { echo "FAIL: no Linux pixels at $linux_pixels (the capi_selftest test writes them)"; exit 1; }
+/usr/bin/python3 - "$linux_pixels" "$win_pixels" <<'PY'
+import sys
+a = [float(x) for x in open(sys.argv[1])]
+b = [float(x) for x in open(sys.argv[2])]
+if len(a) != len(b) or not a:
+    print("FAIL: %d Linux values, %d Windows values" % (len(a), len(b))); sys.exit(1)
+worst = max(abs(x - y) / max(abs(x), 1e-30) for x, y in zip(a, b) if abs(x) > 1e-6)
+print("sky pixels, Windows vs Linux: %d values, largest relative difference %.3g" % (len(a), worst))
+if worst > 1e-5:
+    print("FAIL: the Windows sky differs from the Linux sky by more than 1e-5 relative"); sys.exit(1)
+PY
