@@ -10,7 +10,10 @@ module
      back as the same scene;
   2. runs `airmass compare SCENE -o TMP --blender <this Blender> --scripts <zip>/compare_scripts
      --addon <folder holding airmass_blender> ...` as a subprocess into a fresh temporary
-     folder beside the result, reading its progress lines (stderr) and the Blender logs;
+     folder beside the result, reading its progress lines (stderr) and the Blender logs. This
+     Blender (bpy.app.binary_path) does everything the CLI does not do natively: the renders
+     and the report (report.py in this Blender's own Python, numpy and bpy's image API), so no
+     system Python is needed; the add-on never passes --python;
   3. cancels by SIGTERM: the CLI's interrupt guard turns it into a cancel flag, it kills its
      Blender process group and exits; the temporary folder is then removed, so nothing is
      left (the CLI itself does not clean up after a cancel);
@@ -86,7 +89,10 @@ _availability = {}
 
 
 def availability():
-    """None when Compare with Native can run, else why not (cached per CLI file and mtime)."""
+    """None when Compare with Native can run, else why not (cached per CLI file and mtime).
+    Needs the bundled CLI and scripts, and this Blender's executable (renders and report)."""
+    if not bpy.app.binary_path or not os.path.isfile(bpy.app.binary_path):
+        return "this Blender's executable is unknown (bpy.app.binary_path is '%s')" % bpy.app.binary_path
     exe = cli_path()
     try:
         key = (exe, os.stat(exe).st_mtime_ns)
@@ -391,6 +397,7 @@ class ComparePlan(Plan):
         self.partial = False
 
     def command(self, scene_file):
+        # --blender: this Blender renders, and runs the report in its own Python (no --python).
         cmd = [cli_path(), "compare", scene_file, "-o", self.work_dir, "--blender", self.blender,
                "--scripts", scripts_dir(), "--addon", addon_parent(),
                "--width", str(self.camera["width"]), "--height", str(self.camera["height"]),

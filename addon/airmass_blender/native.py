@@ -2,7 +2,9 @@
 
 Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and from
 plain Python tests. The library is looked up next to this file (the add-on zip bundles
-it) unless the environment variable AIRMASS_C_LIBRARY names another file.
+it: libairmass_c.so on Linux, airmass_c.dll on Windows) unless the environment variable
+AIRMASS_C_LIBRARY names another file. The library has no shared dependencies beyond the
+C/C++ runtime (C ABI 3: it writes no files; the host stores what it returns).
 
 Every wrapper raises NativeError (with the library's status and message) on failure, so
 callers report one exception type. The library never aborts; a wrapper never leaves a
@@ -12,11 +14,18 @@ library-allocated string unfreed.
 import ctypes
 import json
 import os
+import sys
 import threading
 
-ABI_VERSION = 2
+ABI_VERSION = 3
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
-LIBRARY_NAME = "libairmass_c.so"
+# File name of the library per platform (sys.platform prefix → name). The add-on zip carries
+# the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
+# dylib (arm64 + x86_64); otherwise a Mac user builds it from source.
+LIBRARY_NAMES = (("win32", "airmass_c.dll"), ("cygwin", "airmass_c.dll"), ("darwin", "libairmass_c.dylib"))
+LIBRARY_NAME_DEFAULT = "libairmass_c.so"  # Linux and other ELF systems
+BUILD_FROM_SOURCE = ("the Airmass repository, docs/addon.md 'Install' (cmake -S . -B build -G Ninja && "
+                     "cmake --build build --target airmass_c)")
 
 OK = 0
 INVALID_ARGUMENT = 1
@@ -159,39 +168,59 @@ _SIGNATURES = {
     "airmass_cancel_token_requested": (ctypes.c_int32, [ctypes.c_void_p]),
     "airmass_cancel_token_free": (None, [ctypes.c_void_p]),
     "airmass_sky_options_init": (None, [ctypes.POINTER(SkyOptions)]),
-    "airmass_write_sky_exr": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
-                                               ctypes.c_char_p, ctypes.POINTER(Job), ctypes.c_void_p, _SIZE]),
+    "airmass_render_sky": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
+                                            ctypes.POINTER(ctypes.c_float), _SIZE, ctypes.POINTER(Job), _OUT,
+                                            ctypes.c_void_p, _SIZE]),
     "airmass_sun_light_at_observer": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.c_char_p,
                                                        ctypes.POINTER(SunLight), ctypes.c_void_p, _SIZE]),
     "airmass_vdb_options_init": (None, [ctypes.POINTER(VdbOptions)]),
-    "airmass_write_vdb": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions), ctypes.c_char_p,
-                                           ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
     "airmass_analytic_density_json": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                        _OUT, ctypes.c_void_p, _SIZE]),
 }
 
 _lock = threading.Lock()
-_state = {"lib": None, "error": None, "path": None}
+_state = {"lib": None, "error": None, "path": None, "dll_directory": None}
 
 
-def default_library_path():
-    return os.environ.get(LIBRARY_ENV) or os.path.join(os.path.dirname(os.path.abspath(__file__)), LIBRARY_NAME)
+def library_name(platform=None):
+    """The library's file name on `platform` (default sys.platform)."""
+    platform = sys.platform if platform is None else platform
+    for prefix, name in LIBRARY_NAMES:
+        if platform.startswith(prefix):
+            return name
+    return LIBRARY_NAME_DEFAULT
 
 
-def _load():
-    path = default_library_path()
+def default_library_path(platform=None):
+    return os.environ.get(LIBRARY_ENV) or os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                       library_name(platform))
+
+
+def _open(path, platform):
+    """ctypes.CDLL(path), with the Windows DLL search path extended to the library's folder
+    (Python 3.8+ no longer searches PATH or the current folder for a DLL's dependencies)."""
+    if platform.startswith(("win32", "cygwin")) and hasattr(os, "add_dll_directory"):
+        handle = os.add_dll_directory(os.path.dirname(os.path.abspath(path)))
+        _state["dll_directory"] = handle  # keep it: closing the handle removes the folder again
+    return ctypes.CDLL(path)
+
+
+def _load(platform=None):
+    platform = sys.platform if platform is None else platform
+    path = default_library_path(platform)
     if not os.path.isfile(path):
+        if platform.startswith("darwin") and not os.environ.get(LIBRARY_ENV):
+            raise LibraryLoadError(
+                "Airmass: this build of the add-on carries no macOS library (it has Linux and Windows x86-64 "
+                "ones); build from source: %s, then put libairmass_c.dylib next to '%s' or set %s to its path"
+                % (BUILD_FROM_SOURCE, os.path.dirname(path), LIBRARY_ENV))
         raise LibraryLoadError(
             "Airmass native library not found at '%s' (the add-on zip bundles it; reinstall the add-on, "
             "or set %s to its path)" % (path, LIBRARY_ENV))
     try:
-        lib = ctypes.CDLL(path)
+        lib = _open(path, platform)
     except OSError as e:
-        hint = ""
-        if "cannot open shared object" in str(e):
-            hint = " (it needs the system libraries it was built against: OpenImageIO, OpenVDB, TBB, " \
-                   "toml++, libcerf; install them or use Debian's Blender)"
-        raise LibraryLoadError("Airmass native library '%s' failed to load: %s%s" % (path, e, hint))
+        raise LibraryLoadError("Airmass native library '%s' failed to load: %s" % (path, e))
     try:
         for name, (restype, argtypes) in _SIGNATURES.items():
             fn = getattr(lib, name)
@@ -362,13 +391,15 @@ class Progress:
         except Exception:
             pass
 
-    def _job(self):
+    def _job(self, lo=0.0, hi=1.0):
+        """A Job for a call; its fraction f is reported as lo + (hi − lo)·f of the whole (for a
+        task of several calls). Returns (job, keepalive)."""
         def trampoline(_user, fraction):
-            self.fraction = fraction
+            self.fraction = lo + (hi - lo) * fraction
             if self.callback is None:
                 return 0
             try:
-                return 1 if self.callback(fraction) else 0
+                return 1 if self.callback(self.fraction) else 0
             except Exception:
                 return 1  # a failing callback stops the work rather than being ignored
 
@@ -420,8 +451,21 @@ def validate_scene(spec):
     return json.loads(_take_string(lib, out))
 
 
-def write_sky_exr(spec, path, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True,
-                  upper_only=False, threads=0, grid=None, multiple_scattering=True, progress=None):
+def sky_height(width, height=0):
+    """The height the library uses for `width` × `height` (0: width / 2, at least 2)."""
+    return int(height) if int(height) > 0 else max(2, int(width) // 2)
+
+
+def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True, upper_only=False,
+               threads=0, grid=None, multiple_scattering=True, progress=None):
+    """Renders the sky in memory: (pixels, metadata).
+
+    pixels: numpy float32 array (height, width, 4), linear Rec.709 RGBA in the sky texture's
+    units, row 0 = the TOP row (straight up; Blender's image rows start at the bottom, so a
+    host flips), Blender's equirectangular convention. metadata: {"airmass:version": ...,
+    ...} — the strings an EXR of this sky would carry. Raises NativeError (also on cancel)."""
+    import numpy as np  # every Blender bundles numpy; imported here so the rest needs none
+
     lib = library()
     c_spec, keep = spec._to_c(lib)
     opts = SkyOptions()
@@ -438,15 +482,26 @@ def write_sky_exr(spec, path, width=1024, height=0, view_samples=None, chapman=N
     if grid is not None:
         opts.grid = int(grid)
     opts.multiple_scattering = 1 if multiple_scattering else 0
+    w = max(0, int(width))
+    h = sky_height(width, height) if w > 0 else 0
+    # A width the library refuses still needs a valid pointer: it reports the width first.
+    pixels = np.zeros((max(1, h), max(1, w), 4), dtype=np.float32) if w * h == 0 else \
+        np.empty((h, w, 4), dtype=np.float32)
+    count = w * h * 4
     buf = _message_buffer()
+    meta = ctypes.c_void_p()
     job_ptr, fn = None, None
     if progress is not None:
         job, fn = progress._job()
         job_ptr = ctypes.byref(job)
-    status = lib.airmass_write_sky_exr(ctypes.byref(c_spec), ctypes.byref(opts), _bytes(path), job_ptr, buf,
-                                       _MESSAGE_SIZE)
+    status = lib.airmass_render_sky(ctypes.byref(c_spec), ctypes.byref(opts),
+                                    pixels.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), count, job_ptr,
+                                    ctypes.byref(meta), buf, _MESSAGE_SIZE)
     del keep, fn, chapman_b
+    text = _take_string(lib, meta)  # freed whatever the status
     _check(lib, status, buf)
+    metadata = json.loads(text) if text else {}
+    return pixels, {str(k): str(v) for k, v in metadata.items()}
 
 
 def sun_light(spec, chapman=None):
@@ -489,8 +544,32 @@ def _vdb_options(lib, region="planet", unit="km", origin_center=False, voxel_siz
     return opts, keep
 
 
-def write_vdb(spec, path, progress=None, **vdb):
-    """Writes the grids; returns the stats dict (files, voxel_size, active_voxels, ...)."""
+# ---- volumes: the library plans and samples the grids, the host writes them ------------------
+# (airmass_c.h "Volumes"; vdb_host.py builds the grids with Blender's own OpenVDB module.)
+
+class VdbBlock(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("grid", ctypes.c_char_p),
+        ("min", ctypes.c_int32 * 3),
+        ("max", ctypes.c_int32 * 3),
+        ("threads", ctypes.c_int32),
+    ]
+
+
+_SIGNATURES.update({
+    "airmass_vdb_plan": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions), ctypes.c_char_p,
+                                          ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_vdb_block_init": (None, [ctypes.POINTER(VdbBlock)]),
+    "airmass_vdb_grid_values": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
+                                                 ctypes.POINTER(VdbBlock), ctypes.POINTER(ctypes.c_float), _SIZE,
+                                                 ctypes.POINTER(Job), ctypes.c_void_p, _SIZE]),
+})
+
+
+def vdb_plan(spec, file_stem=None, progress=None, progress_range=(0.0, 1.0), **vdb):
+    """The volume's plan (airmass_vdb_plan): grids with their boxes, transform and metadata,
+    files, limits already checked. A long call (the sampling pass)."""
     lib = library()
     c_spec, keep = spec._to_c(lib)
     opts, keep2 = _vdb_options(lib, **vdb)
@@ -498,13 +577,50 @@ def write_vdb(spec, path, progress=None, **vdb):
     buf = _message_buffer()
     job_ptr, fn = None, None
     if progress is not None:
-        job, fn = progress._job()
+        job, fn = progress._job(*progress_range)
         job_ptr = ctypes.byref(job)
-    status = lib.airmass_write_vdb(ctypes.byref(c_spec), ctypes.byref(opts), _bytes(path), job_ptr,
-                                   ctypes.byref(out), buf, _MESSAGE_SIZE)
-    del keep, keep2, fn
+    stem = _bytes(file_stem) if file_stem is not None else None
+    status = lib.airmass_vdb_plan(ctypes.byref(c_spec), ctypes.byref(opts), stem, job_ptr, ctypes.byref(out), buf,
+                                  _MESSAGE_SIZE)
+    del keep, keep2, fn, stem
     _check(lib, status, buf)
     return json.loads(_take_string(lib, out))
+
+
+def vdb_grid_values(spec, grid, box_min, box_max, progress=None, progress_range=(0.0, 1.0), threads=0, out=None,
+                    **vdb):
+    """One grid's densities over the index box [box_min, box_max] (inclusive) as a C-ordered
+    float32 numpy array a[i][j][k] = voxel box_min + (i, j, k) — what OpenVDB's Python
+    `grid.copyFromArray(a, ijk=box_min)` reads; 0 where inactive. `out`: an array of that
+    shape and dtype to fill instead of a new one."""
+    import numpy as np
+    lib = library()
+    shape = tuple(int(b) - int(a) + 1 for a, b in zip(box_min, box_max))
+    if out is None:
+        out = np.empty(tuple(max(0, n) for n in shape), dtype=np.float32)
+    elif out.dtype != np.float32 or not out.flags["C_CONTIGUOUS"] or out.shape != shape:
+        raise ValueError("out: a C-contiguous float32 array of shape %s, not %s %s" % (shape, out.dtype, out.shape))
+    c_spec, keep = spec._to_c(lib)
+    opts, keep2 = _vdb_options(lib, **vdb)
+    block = VdbBlock()
+    lib.airmass_vdb_block_init(ctypes.byref(block))
+    name = _bytes(grid)
+    block.grid = name
+    for a in range(3):
+        block.min[a] = int(box_min[a])
+        block.max[a] = int(box_max[a])
+    block.threads = int(threads)
+    buf = _message_buffer()
+    job_ptr, fn = None, None
+    if progress is not None:
+        job, fn = progress._job(*progress_range)
+        job_ptr = ctypes.byref(job)
+    status = lib.airmass_vdb_grid_values(ctypes.byref(c_spec), ctypes.byref(opts), ctypes.byref(block),
+                                         out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size, job_ptr,
+                                         buf, _MESSAGE_SIZE)
+    del keep, keep2, fn, name
+    _check(lib, status, buf)
+    return out
 
 
 def analytic_density(spec, **vdb):

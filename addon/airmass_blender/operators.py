@@ -17,7 +17,8 @@ from .properties import SettingsError, refresh_constituents
 
 
 class AIRMASS_OT_generate_sky(JobOperatorMixin, bpy.types.Operator):
-    """Write the sky texture (EXR) through the Airmass library and use it as the World background"""
+    """Render the sky texture through the Airmass library into a packed float image (also saved as EXR in the
+    Output Folder when it resolves) and use it as the World background"""
     bl_idname = "airmass.generate_sky"
     bl_label = "Generate Sky"
     bl_options = {"REGISTER", "UNDO"}

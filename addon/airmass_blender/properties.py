@@ -273,7 +273,8 @@ class AirmassSettings(bpy.types.PropertyGroup):
     # -- output
     output_folder: StringProperty(
         name="Output Folder", subtype="DIR_PATH", default="//airmass/",
-        description="Folder for the sky EXR and VDB files (created if missing; // is the .blend file's folder)")
+        description="Folder for the sky EXR and VDB files (created if missing; // is the .blend file's folder). "
+                    "The sky is always packed into the .blend; it is also saved here when the folder resolves")
 
 
 CLASSES = (AirmassConstituent, AirmassSettings)
@@ -362,12 +363,17 @@ def refresh_constituents(settings):
     return None
 
 
-def resolve_output_folder(settings):
-    """Absolute, existing, writable output folder (created when missing), or SettingsError."""
+def resolve_output_folder(settings, optional=False):
+    """Absolute, existing, writable output folder (created when missing), or SettingsError.
+
+    optional=True (the sky, which lives packed in the .blend): a folder relative to a .blend
+    that is not saved yet gives None (no file is written) instead of an error."""
     raw = settings.output_folder.strip()
     if not raw:
         raise SettingsError("Output Folder is not set: choose a folder for the generated files")
     if raw.startswith("//") and not bpy.data.filepath:
+        if optional:
+            return None
         raise SettingsError("Output Folder '%s' is relative to the .blend file, which is not saved yet: "
                             "save the file or choose an absolute folder" % raw)
     return ensure_folder(os.path.normpath(bpy.path.abspath(raw)))

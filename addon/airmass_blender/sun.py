@@ -25,7 +25,7 @@ import math
 import bpy
 from mathutils import Euler, Vector
 
-from . import native
+from . import compat, native
 from .properties import _Guard, make_spec
 
 LAMP_NAME = "Airmass Sun"
@@ -63,6 +63,7 @@ def find_lamp(scene):
 
 def _new_lamp(scene):
     data = bpy.data.lights.new(LAMP_NAME, type="SUN")
+    compat.set_light_shadow(data, True)
     obj = bpy.data.objects.new(LAMP_NAME, data)
     obj[ROLE] = "sun"
     scene.collection.objects.link(obj)
@@ -91,9 +92,17 @@ def lamp_light(scene, top=None):
 
 
 def apply_light(obj, strength, colour, angle):
+    """Strength × colour = the library's linear Rec.709 sunlight, the colour converted to the
+    file's working colour space (Blender 5.0+; identity before)."""
     obj.data.energy = strength
-    obj.data.color = colour
+    obj.data.color = compat.convert_rgb(colour)
     obj.data.angle = angle
+
+
+def stop_world_sun_extraction(scene):
+    """EEVEE (4.2+) must not extract a second sun from the World while the lamp gives it."""
+    if scene.world is not None:
+        compat.set_world_sun_extraction(scene.world, False)
 
 
 def settings_to_lamp(scene, create=True):
@@ -112,6 +121,7 @@ def settings_to_lamp(scene, create=True):
         obj.rotation_euler = lamp_rotation(s.sun_elevation, s.sun_rotation)
         apply_light(obj, strength, colour, angle)
         s.sun_object = obj
+    stop_world_sun_extraction(scene)
     return obj
 
 
@@ -135,6 +145,7 @@ def lamp_to_settings(scene):
     with _Guard():
         apply_light(obj, strength, colour, angle)
         s.sun_object = obj
+    stop_world_sun_extraction(scene)
     return obj
 
 

@@ -2,7 +2,7 @@
 
 import bpy
 
-from . import compare, native
+from . import compare, native, vdb_host
 
 
 def _library_status(layout):
@@ -169,7 +169,13 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.scale_y = 1.3
         row.operator("airmass.create_volume", text="Analytic Volume", icon="MESH_UVSPHERE").mode = "ANALYTIC"
-        row.operator("airmass.create_volume", text="VDB Volume", icon="VOLUME_DATA").mode = "VDB"
+        vdb = row.row(align=True)
+        reason = vdb_host.unavailable_reason()
+        vdb.enabled = reason is None  # this Blender has no OpenVDB Python module: the analytic volume only
+        vdb.operator("airmass.create_volume", text="VDB Volume", icon="VOLUME_DATA").mode = "VDB"
+        if reason:
+            for line in _wrap(reason, 48):
+                layout.label(text=line, icon="INFO")
 
 
 class AIRMASS_PT_world_compare(AirmassWorldPanel, bpy.types.Panel):

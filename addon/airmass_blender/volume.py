@@ -17,9 +17,10 @@ constituent's density exactly from the shading point, with Math nodes only:
                                           piecewise linear: Σ pieces × [h_k ≤ h < h_k+1]
                                           constant: v · [b ≤ h < t]
 
-VDB — the library writes the grids of the region the active camera needs (or the whole
-planet); each file becomes a Volume object (render clipping 0, FULL precision), its
-material reads each grid by name with an Attribute node.
+VDB — the library plans and samples the grids of the region the active camera needs (or
+the whole planet); vdb_host writes them with this Blender's own OpenVDB module (`openvdb`
+from 4.4, `pyopenvdb` before); each file becomes a Volume object (render clipping 0, FULL
+precision), its material reads each grid by name with an Attribute node.
 
 Material (both): per constituent, Volume Scatter with Colour = σs/max(σs) and Density =
 ρ·max(σs) (σs per Blender unit at density 1, RGB), and Volume Absorption with Colour =
@@ -39,7 +40,7 @@ import os
 import bpy
 from mathutils import Vector
 
-from . import native
+from . import compat, native, vdb_host
 from .jobs import Plan
 from .properties import KM, SettingsError, make_spec, resolve_output_folder
 
@@ -56,11 +57,7 @@ SPHERE_RINGS = 128
 
 def hg_anisotropy(phase, g):
     """Henyey–Greenstein g with the same mean cosine as the scene's phase function."""
-    if phase == "henyey_greenstein":
-        return g
-    if phase == "cornette_shanks":
-        return 3.0 * g * (4.0 + g * g) / (5.0 * (2.0 + g * g))
-    return 0.0  # rayleigh, rayleigh_modified, isotropic: symmetric
+    return compat.hg_anisotropy(phase, g)
 
 
 def units(settings):
@@ -201,11 +198,12 @@ def dithered_scatter(nb, scatterers):
     for j in range(1, len(scatterers)):
         chosen = nb.math("GREATER_THAN", u_total, cum)  # scatterer j or a later one
         g = nb.math("MULTIPLY_ADD", chosen, float(scatterers[j][2]) - float(scatterers[j - 1][2]), g)
-        mix = nb.node("ShaderNodeMixRGB", blend_type="MIX")
-        nb.tree.links.new(chosen, mix.inputs["Fac"])
-        nb.tree.links.new(colour, mix.inputs["Color1"])
-        nb.tree.links.new(colours[j], mix.inputs["Color2"])
-        colour = mix.outputs["Color"]
+        mix, fac, a, b, result = compat.new_color_mix(nb.tree)
+        nb.place(mix)
+        nb.tree.links.new(chosen, fac)
+        nb.tree.links.new(colour, a)
+        nb.tree.links.new(colours[j], b)
+        colour = result
         cum = nb.math("ADD", cum, shares[j])
     node = nb.node("ShaderNodeVolumeScatter", name="scatter (dithered)", label="scatter (dithered)")
     nb.tree.links.new(colour, node.inputs["Color"])
@@ -214,63 +212,57 @@ def dithered_scatter(nb, scatterers):
     return node
 
 
-def build_material(name, constituents, density_for, anisotropy_version=None, phase_mixing="DITHER"):
+def build_material(name, constituents, density_for, phase_mixing="DITHER"):
     """A volume material from constituent descriptions (name, scattering_rgb, absorption_rgb,
     phase, g) and `density_for(nb, name)` → a socket (or float) of the relative density.
 
-    phase_mixing "DITHER": in Blender < 4.3 (Henyey–Greenstein only), scatterers of different
-    g share one dithered Volume Scatter (dithered_scatter); "SEPARATE", or 4.3+ with its own
-    phase types: one Volume Scatter per constituent."""
+    phase_mixing "DITHER": where Blender has Henyey–Greenstein only (< 4.3,
+    compat.needs_phase_dither), scatterers of different g share one dithered Volume Scatter
+    (dithered_scatter); "SEPARATE", or 4.3+ with its own phase types (compat.set_scatter_phase):
+    one Volume Scatter per constituent. Coefficients are the library's linear Rec.709 numbers
+    converted to the file's working colour space (compat; identity before 5.0); the node
+    properties airmass_sigma_s / airmass_sigma_a keep the library's own numbers."""
     mat = bpy.data.materials.new(name)
     try:
-        mat.use_nodes = True
-        tree = mat.node_tree
+        tree = compat.ensure_node_tree(mat)
         tree.nodes.clear()
+        compat.set_heterogeneous_volume(mat)
         nb = NodeBuilder(tree)
         out = tree.nodes.new("ShaderNodeOutputMaterial")
         out.location = (900, 300)
-        version = anisotropy_version or bpy.app.version
+        matrix = compat.rec709_to_working_matrix()
         shaders = []
-        # Henyey–Greenstein g of every scattering constituent (what Blender < 4.3 renders)
-        g_of = {c["name"]: hg_anisotropy(c.get("phase", "isotropic"), float(c.get("g", 0.0)))
-                for c in constituents if max(float(x) for x in c["scattering_rgb"]) > 0.0}
-        dither = phase_mixing == "DITHER" and version < (4, 3, 0) and len(set(g_of.values())) > 1
+        scatterers = [c for c in constituents if max(float(x) for x in c["scattering_rgb"]) > 0.0]
+        dither = phase_mixing == "DITHER" and compat.needs_phase_dither(
+            [(c.get("phase", "isotropic"), float(c.get("g", 0.0))) for c in scatterers])
         dithered = []
         for c in constituents:
             sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
             sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
             if max(sigma_s) <= 0.0 and max(sigma_a) <= 0.0:
                 continue
+            # In the working space (Rec.709 ⊂ Rec.2020, ACEScg: positive stays positive).
+            ws_s = [max(0.0, x) for x in compat.convert_rgb(sigma_s, matrix)]
+            ws_a = [max(0.0, x) for x in compat.convert_rgb(sigma_a, matrix)]
             density = density_for(nb, c["name"])
-            if max(sigma_s) > 0.0 and dither:
-                dithered.append((c["name"], sigma_s, g_of[c["name"]], density))
-            elif max(sigma_s) > 0.0:
-                ds = max(sigma_s)
+            phase = c.get("phase", "isotropic")
+            g = float(c.get("g", 0.0))
+            if max(ws_s) > 0.0 and dither:
+                dithered.append((c["name"], ws_s, compat.hg_anisotropy(phase, g), density))
+            elif max(ws_s) > 0.0:
+                ds = max(ws_s)
                 node = nb.node("ShaderNodeVolumeScatter", name="%s scatter" % c["name"], label="%s scatter" % c["name"])
-                node.inputs["Color"].default_value = (*[x / ds for x in sigma_s], 1.0)
+                node.inputs["Color"].default_value = (*[x / ds for x in ws_s], 1.0)
                 nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, ds) if not isinstance(density, float)
                          else density * ds)
-                phase = c.get("phase", "isotropic")
-                g = float(c.get("g", 0.0))
-                if version >= (4, 3, 0) and hasattr(node, "phase"):
-                    if phase in ("rayleigh", "rayleigh_modified"):
-                        node.phase = "RAYLEIGH"
-                    elif phase == "cornette_shanks":
-                        node.phase = "DRAINE"
-                        node.inputs["Anisotropy"].default_value = g
-                        node.inputs["Alpha"].default_value = 1.0
-                    else:
-                        node.phase = "HENYEY_GREENSTEIN"
-                        node.inputs["Anisotropy"].default_value = hg_anisotropy(phase, g)
-                else:
-                    node.inputs["Anisotropy"].default_value = hg_anisotropy(phase, g)
+                node["airmass_phase"] = compat.set_scatter_phase(node, phase, g)
                 node["airmass_sigma_s"] = sigma_s
                 shaders.append(node.outputs[0])
-            if max(sigma_a) > 0.0:
-                da = max(sigma_a)
+            if max(ws_a) > 0.0:
+                da = max(ws_a)
                 node = nb.node("ShaderNodeVolumeAbsorption", name="%s absorption" % c["name"],
                                label="%s absorption" % c["name"])
-                node.inputs["Color"].default_value = (*[1.0 - x / da for x in sigma_a], 1.0)
+                node.inputs["Color"].default_value = (*[1.0 - x / da for x in ws_a], 1.0)
                 nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, da) if not isinstance(density, float)
                          else density * da)
                 node["airmass_sigma_a"] = sigma_a
@@ -425,10 +417,12 @@ def view_cap(context, settings, description, unit_m):
 
 def ground_material(albedo):
     mat = bpy.data.materials.new(GROUND_NAME)
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes.new("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = (albedo, albedo, albedo, 1.0)
-    out = mat.node_tree.nodes.get("Material Output")
+    tree = compat.ensure_node_tree(mat)
+    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (albedo, albedo, albedo, 1.0)  # grey: the same in every working space
+    out = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"), None)
+    if out is None:  # 5.0: a new material's tree may come without an output
+        out = tree.nodes.new("ShaderNodeOutputMaterial")
     for n in list(mat.node_tree.nodes):
         if n not in (bsdf, out):
             mat.node_tree.nodes.remove(n)
@@ -512,10 +506,14 @@ def _configure_scene(context, settings, description, step, unit_name):
     chord = 2.0 * math.sqrt(max(0.0, top * top - R * R))  # the longest path through the shell
     needed = int(math.ceil(chord / step)) + 16
     cycles = getattr(scene, "cycles", None)
-    if cycles is not None:
+    if cycles is not None and compat.volume_ray_marching(scene):
         if cycles.volume_max_steps < needed:
             cycles.volume_max_steps = min(65536, needed)
             notes.append("volume max steps %d" % cycles.volume_max_steps)
+    elif cycles is not None:
+        # Blender 5.0+ without Render → Volumes → Biased: unbiased null scattering; the step
+        # rate (still set on the material) and max steps only apply to biased ray marching.
+        notes.append("null scattering (unbiased): Step applies with Render > Volumes > Biased")
     cam = scene.camera
     if cam is not None and cam.type == "CAMERA":
         far = (cam.matrix_world.translation - center).length + top
@@ -699,11 +697,18 @@ def ui_option_names(message):
 
 
 class VdbPlan(Plan):
+    """The VDB volume: the library plans and samples the grids (no OpenVDB in it), vdb_host
+    writes them with this Blender's own OpenVDB module (atomically, block by block with
+    progress and Esc), and each .vdb becomes a Volume object."""
+
     label = "Create Atmosphere Volume (VDB)"
 
     def __init__(self, context):
         s = context.scene.airmass
         self.settings = s
+        reason = vdb_host.unavailable_reason()
+        if reason:
+            raise SettingsError(reason)
         self.unit_name, self.unit_m = units(s)
         self.spec = make_spec(s)
         self.region = "view" if s.volume_region == "VIEW" else "planet"
@@ -711,41 +716,48 @@ class VdbPlan(Plan):
             self.spec.camera = camera_spec(context, self.unit_m, s.view_distance * KM)
         native.validate_scene(self.spec)
         self.folder = resolve_output_folder(s)
-        self.path = os.path.join(self.folder, "%s_atmosphere.vdb" % bpy.path.clean_name(context.scene.name))
+        self.stem = "%s_atmosphere" % bpy.path.clean_name(context.scene.name)
+        self.path = os.path.join(self.folder, self.stem + ".vdb")
         self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
         self.max_dense_mb = s.max_dense_mb
         self.files = []
         self.summary = None
+
+    def options(self):
+        return {"region": self.region, "unit": self.unit_name, "voxel_size": self.voxel,
+                "max_dense_mb": self.max_dense_mb}
 
     def work(self, progress):
         scene = native.validate_scene(self.spec)
         albedo = float(scene["planet"]["ground_albedo"])
         description = native.analytic_density(self.spec, unit=self.unit_name)
         try:
-            stats = native.write_vdb(self.spec, self.path, progress=progress, region=self.region,
-                                     unit=self.unit_name, voxel_size=self.voxel, max_dense_mb=self.max_dense_mb)
+            written = vdb_host.write_volume(self.spec, self.folder, self.stem, progress=progress, **self.options())
+        except vdb_host.NoOpenVdbModule as e:
+            raise SettingsError(str(e))
         except native.NativeError as e:
             raise native.NativeError(e.status, ui_option_names(str(e)))
-        self.files = list(stats.get("files", []))
-        return stats, description, albedo
+        self.files = list(written.files)
+        return written, description, albedo
 
     def abort(self):
-        # The library writes atomically; a failure after it wrote (in Blender) removes its files.
+        # vdb_host writes atomically; a failure after it wrote (in Blender) removes its files.
         for f in self.files:
             try:
                 os.remove(f)
             except OSError:
                 pass
+        self.files = []
 
     def finish(self, context, result):
-        stats, description, albedo = result
+        written, description, albedo = result
+        plan = written.plan
         s = self.settings
         created = Created()
         try:
-            voxel = float(stats["voxel_size"])
+            voxel = float(plan["voxel_size"])
             volumes = []
-            metadata = {}
-            for i, f in enumerate(self.files):
+            for i, f in enumerate(written.vdb_files):
                 vol = created.add(bpy.data.volumes.new("%s %d" % (VOLUME_NAME, i)))
                 vol.filepath = f
                 vol.render.clipping = 0.0
@@ -755,15 +767,14 @@ class VdbPlan(Plan):
                 if not vol.grids.load():
                     raise RuntimeError("Blender cannot read '%s': %s" % (f, vol.grids.error_message))
                 volumes.append(vol)
-                meta = read_grid_metadata(f)
-                if meta:
-                    metadata.update(meta)
+            # The grids carry the plan's metadata: take the coefficients from it directly.
+            metadata = {g["name"]: vdb_host.metadata_of(g) for g in plan["grids"]}
             grid_names = sorted({g.name for v in volumes for g in v.grids})
             constituents = self._constituents(description, metadata, grid_names)
 
             def density_for(nb, name):
                 attr = nb.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=name)
-                return attr.outputs["Fac"]
+                return compat.fac_socket(attr.outputs)
 
             mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
             mat[ROLE] = "atmosphere"
@@ -774,9 +785,9 @@ class VdbPlan(Plan):
                                                        else VOLUME_NAME, vol))
                 obj[ROLE] = "atmosphere"
                 obj["airmass_mode"] = "VDB"
-                if bpy.app.version < (5, 0, 0):
-                    # Blender < 5.0 renders voxel values at voxel centres; OpenVDB stores them at
-                    # index points (lower corners): shift back by half a voxel.
+                if compat.voxel_centre_shift():
+                    # OpenVDB puts voxel (i, j, k)'s value at i·v (the centre of its cell); Blender
+                    # < 5.0 renders it at the centre of [i, i+1]·v: shift back by half a voxel.
                     obj.location = (-0.5 * voxel, -0.5 * voxel, -0.5 * voxel)
                 new.append(obj)
             if s.add_ground:
@@ -788,10 +799,10 @@ class VdbPlan(Plan):
         except Exception:
             created.remove_all()
             raise
-        source = "grid metadata" if metadata else "analytic description (no pyopenvdb/openvdb module)"
-        self.summary = ("Airmass VDB atmosphere: %d file(s), voxel %.3g %s, %s active voxels, material from %s%s"
-                        % (len(self.files), voxel, self.unit_name, stats.get("active_voxels"), source,
-                           ("; " + "; ".join(notes)) if notes else ""))
+        self.summary = ("Airmass VDB atmosphere: %d file(s), voxel %.3g %s, %s active voxels, written with "
+                        "Blender's %s module%s"
+                        % (len(written.vdb_files), voxel, self.unit_name, plan.get("active_voxels"),
+                           written.module_name, ("; " + "; ".join(notes)) if notes else ""))
 
     @staticmethod
     def _constituents(description, metadata, grid_names):

@@ -1,21 +1,32 @@
-"""Generate Sky: the sky EXR through the library, wired into the World.
+"""Generate Sky: the sky rendered in memory by the library, stored as a packed float image,
+wired into the World.
 
 World node tree after the operator (names are how a re-run finds its nodes, so running
 it again replaces the image and keeps one set of nodes):
 
     [Environment Texture "Airmass Sky"] → [Background "Airmass Background"] → [World Output]
 
-The EXR is written in Blender's own equirectangular convention (Z up, image centre = +X,
-a quarter from the left = +Y, top row = zenith; docs/sky.md), so the Environment Texture
-needs no Mapping node: the identity orientation is the right one, and a sun at Sky
-Texture rotation r sits where a Sun lamp synced with the same r points.
+The image "Airmass Sky" is a 32-bit float image packed into the .blend (Blender packs a
+float image as OpenEXR), so the first Generate Sky works in a new, unsaved file; when the
+Output Folder resolves (absolute, or // with a saved .blend) the same EXR is also written
+there as <scene>_sky.exr (atomically: a temporary name in that folder, then os.replace).
+Its pixels are the library's linear Rec.709 numbers converted to the file's working colour
+space (compat.rec709_to_working_matrix: identity before Blender 5.0), rows flipped (the
+library's row 0 is the zenith, Blender's image rows start at the bottom). The library's
+metadata strings become custom properties of the image (image["airmass:version"], ...).
+
+The sky is in Blender's own equirectangular convention (Z up, image centre = +X, a quarter
+from the left = +Y, top row = zenith; docs/sky.md), so the Environment Texture needs no
+Mapping node: a sun at Sky Texture rotation r sits where a Sun lamp synced with the same r
+points.
 """
 
 import os
+import tempfile
 
 import bpy
 
-from . import native
+from . import compat, native
 from .jobs import Plan
 from .properties import make_spec, resolve_output_folder
 
@@ -23,19 +34,11 @@ ENV_NODE = "Airmass Sky"
 BACKGROUND_NODE = "Airmass Background"
 IMAGE_NAME = "Airmass Sky"
 WORLD_NAME = "Airmass World"
+PIXELS_KEY = "airmass:pixels"  # custom property: "rec709→<working space>" provenance of the pixels
 
 
 def sky_path(scene, folder):
     return os.path.join(folder, "%s_sky.exr" % bpy.path.clean_name(scene.name))
-
-
-def _linear_colorspace(image):
-    for name in ("Linear Rec.709", "Linear"):  # 4.x name, then 3.x name
-        try:
-            image.colorspace_settings.name = name
-            return
-        except TypeError:
-            continue
 
 
 def _world_output(tree):
@@ -45,7 +48,12 @@ def _world_output(tree):
             return n
     if outputs:
         return outputs[0]
-    return tree.nodes.new("ShaderNodeOutputWorld")
+    return tree.nodes.new("ShaderNodeOutputWorld")  # 5.0: a new World's tree is empty
+
+
+def airmass_lamp_in_scene(scene):
+    from . import sun
+    return sun.find_lamp(scene) is not None
 
 
 def wire_world(scene, image, strength):
@@ -54,8 +62,7 @@ def wire_world(scene, image, strength):
     if world is None:
         world = bpy.data.worlds.new(WORLD_NAME)
         scene.world = world
-    world.use_nodes = True
-    tree = world.node_tree
+    tree = compat.ensure_node_tree(world)
     out = _world_output(tree)
     env = tree.nodes.get(ENV_NODE)
     if env is None or env.bl_idname != "ShaderNodeTexEnvironment":
@@ -78,7 +85,42 @@ def wire_world(scene, image, strength):
     if cycles is not None and hasattr(cycles, "sampling_method"):
         cycles.sampling_method = "MANUAL"
         cycles.sample_map_resolution = max(256, min(4096, image.size[0]))
+    # EEVEE 4.2+ would extract a second sun from the texture when the Airmass Sun lamp is there.
+    if airmass_lamp_in_scene(scene):
+        compat.set_world_sun_extraction(world, False)
     return world
+
+
+def stage_file(path, data):
+    """Writes bytes to a temporary file next to `path` (same folder, so the final os.replace
+    is atomic) and returns its name; nothing is left behind on error."""
+    folder = os.path.dirname(path)
+    fd, tmp = tempfile.mkstemp(prefix=".%s.airmass-tmp-" % os.path.basename(path), dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+    except BaseException:
+        _remove_quietly(tmp)
+        raise
+    return tmp
+
+
+def _remove_quietly(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
+def _restore_world(scene, old_image):
+    """After a failure: the Environment Texture shows the previous image again."""
+    world = scene.world
+    tree = getattr(world, "node_tree", None) if world is not None else None
+    env = tree.nodes.get(ENV_NODE) if tree is not None else None
+    if env is not None:
+        env.image = old_image
 
 
 class SkyPlan(Plan):
@@ -90,37 +132,61 @@ class SkyPlan(Plan):
         self.scene_name = scene.name
         self.spec = make_spec(s)
         native.validate_scene(self.spec)  # fail before any work, with the field's name
-        self.folder = resolve_output_folder(s)
-        self.path = sky_path(scene, self.folder)
+        self.folder = resolve_output_folder(s, optional=True)  # None: packed only (unsaved .blend)
+        self.path = sky_path(scene, self.folder) if self.folder else None
         self.width = s.sky_width
+        self.height = native.sky_height(self.width)
         self.samples = s.view_samples
         self.chapman = s.chapman
         self.sun_disc = s.sun_disc
         self.grid = s.sky_grid
         self.multiple_scattering = s.multiple_scattering
         self.strength = s.sky_strength
+        # Read on the main thread; applied to the pixels on the worker.
+        self.matrix = compat.rec709_to_working_matrix()
+        self.working_space = compat.working_space()
         self.summary = None
 
     def work(self, progress):
-        native.write_sky_exr(self.spec, self.path, width=self.width, height=max(2, self.width // 2),
-                             view_samples=self.samples, chapman=self.chapman, sun_disc=self.sun_disc,
-                             grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress)
-        return self.path
+        pixels, metadata = native.render_sky(
+            self.spec, width=self.width, height=self.height, view_samples=self.samples, chapman=self.chapman,
+            sun_disc=self.sun_disc, grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress)
+        compat.convert_pixels(pixels, self.matrix)
+        # Blender's image rows start at the bottom; the library's row 0 is the zenith.
+        return pixels[::-1].ravel(), metadata
 
-    def finish(self, context, path):
+    def finish(self, context, result):
+        flat, metadata = result
         scene = context.scene
         old = bpy.data.images.get(IMAGE_NAME)
-        image = bpy.data.images.load(path, check_existing=False)
+        image = bpy.data.images.new(IMAGE_NAME + " (new)", self.width, self.height, alpha=True, float_buffer=True)
+        staged = None
         try:
-            _linear_colorspace(image)
-            image.reload()
-            if image.size[0] == 0:
-                raise RuntimeError("Blender could not read the sky image '%s'" % path)
+            compat.set_float_image_colorspace(image)
+            compat.prepare_float_image(image)
+            image.pixels.foreach_set(flat)
+            image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
+            if image.packed_file is None or tuple(image.size) != (self.width, self.height):
+                raise RuntimeError("Blender could not pack the sky image")
+            for key, value in metadata.items():
+                image[key] = value
+            image[PIXELS_KEY] = "linear Rec.709 -> %s" % self.working_space
+            if self.path:
+                staged = stage_file(self.path, bytes(image.packed_file.data))
+                image.filepath_raw = self.path  # stays packed; the file is its unpacked twin
             wire_world(scene, image, self.strength)
+            if staged:
+                os.replace(staged, self.path)  # last: nothing after it can fail
+                staged = None
         except Exception:
+            _restore_world(scene, old)
             bpy.data.images.remove(image)
+            if staged:
+                _remove_quietly(staged)
             raise
         if old is not None and old != image:
             bpy.data.images.remove(old)
         image.name = IMAGE_NAME
-        self.summary = "Airmass sky %dx%d written to %s" % (image.size[0], image.size[1], path)
+        where = ("packed and written to %s" % self.path) if self.path else \
+            "packed into the .blend (no file: the Output Folder is relative to an unsaved .blend)"
+        self.summary = "Airmass sky %dx%d %s" % (image.size[0], image.size[1], where)

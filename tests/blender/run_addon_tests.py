@@ -206,6 +206,13 @@ def evaluate_socket(socket, position, cache=None):
         check(node.blend_type == "MIX" and not node.use_clamp, "unexpected mix %s" % node.blend_type)
         f, c1, c2 = inp(0), inp(1), inp(2)
         val = tuple(a + f * (b - a) for a, b in zip(c1, c2))
+    elif t == "ShaderNodeMix":
+        check(node.data_type == "RGBA" and node.blend_type == "MIX" and not node.clamp_factor
+              and not node.clamp_result, "unexpected mix %s %s" % (node.data_type, node.blend_type))
+        check(socket.identifier == "Result_Color", "unexpected mix output %s" % socket.identifier)
+        ids = [i.identifier for i in node.inputs]
+        f, c1, c2 = inp(ids.index("Factor_Float")), inp(ids.index("A_Color")), inp(ids.index("B_Color"))
+        val = tuple(a + f * (b - a) for a, b in zip(c1, c2))
     elif t == "ShaderNodeVectorMath":
         a, b = inp(0), inp(1)
         check(node.operation == "DOT_PRODUCT", "unexpected vector op %s" % node.operation)
@@ -269,12 +276,30 @@ def test_generate_sky_world_and_orientation():
     close(bg.inputs["Strength"].default_value, s.sky_strength, what="background strength")
     img = env.image
     check(img is not None and tuple(img.size) == (256, 128), "image size %s" % (tuple(img.size),))
-    check(os.path.isfile(bpy.path.abspath(img.filepath)), "EXR missing")
+    check(img.name == "Airmass Sky" and img.is_float and img.packed_file is not None, "image not a packed float")
+    check(img.colorspace_settings.name == "Linear", "colour space %s (Blender 3.4's linear: 'Linear')"
+          % img.colorspace_settings.name)
+    n = Ctx.native
+    check(img.get("airmass:version") == n.version(), "metadata airmass:version %r" % img.get("airmass:version"))
+    check('"width":256' in str(img.get("airmass:settings", "")).replace(" ", ""), "metadata airmass:settings")
+    exr = os.path.join(out, "%s_sky.exr" % bpy.path.clean_name(scene.name))
+    check(os.path.isfile(exr) and os.path.normpath(bpy.path.abspath(img.filepath_raw)) == exr,
+          "EXR %s missing or not the image's file (%s)" % (exr, img.filepath_raw))
+    # The pixels are the library's sky, rows flipped (Blender's rows start at the bottom), exactly.
+    import numpy as np
+    props = __import__(ADDON + ".properties", fromlist=["x"])
+    ref, _ = n.render_sky(props.make_spec(s), width=256, view_samples=s.view_samples, chapman=s.chapman,
+                          sun_disc=True, grid=s.sky_grid, multiple_scattering=s.multiple_scattering)
+    got = np.empty(256 * 128 * 4, dtype=np.float32)
+    img.pixels.foreach_get(got)
+    check(np.array_equal(got.reshape(128, 256, 4), ref[::-1]),
+          "image pixels differ from the library's sky (max %g)" % np.abs(got.reshape(128, 256, 4) - ref[::-1]).max())
+    check(not np.array_equal(ref, ref[::-1]), "the sky is symmetric top/bottom: the flip test means nothing")
 
     # Brightest pixel (the sun disc) is where the Sky Texture formula puts the sun, and where
     # the synced lamp points from.
     w, h = img.size
-    px = img.pixels[:]  # bottom row first
+    px = got.tolist()  # bottom row first
     best, best_xy = -1.0, None
     for j in range(h):
         for i in range(w):
@@ -301,9 +326,75 @@ def test_generate_sky_world_and_orientation():
     check(data_snapshot() == before, "datablocks changed on re-run: %s vs %s" % (data_snapshot(), before))
     check(len([i for i in bpy.data.images if i.name.startswith("Airmass Sky")]) == 1, "images duplicated")
     check(len([f for f in files_in(out) if "airmass-tmp" in f]) == 0, "temporary files left")
+    check([f for f in files_in(out) if f.endswith(".exr")] == [exr], "files %s" % files_in(out))
+    # EEVEE's sun extraction (4.2+) is not in 3.4: nothing to switch off, nothing set.
+    check(not hasattr(scene.world, "sun_threshold"), "3.4 has World.sun_threshold?")
 
     rgb, mean, sec = render_tiny(scene, os.path.join(out, "render_sky.exr"))
     print("    sky render: mean %.4g, %.2f s" % (mean, sec))
+
+
+def _image_pixels(img):
+    import numpy as np
+    a = np.empty(img.size[0] * img.size[1] * 4, dtype=np.float32)
+    img.pixels.foreach_get(a)
+    return a.reshape(img.size[1], img.size[0], 4)
+
+
+@test
+def test_generate_sky_unsaved_factory_defaults():
+    """A new, unsaved file with the factory defaults (Output Folder '//airmass/'): the first
+    Generate Sky works, writes no file, and the image is packed — and survives save + reload
+    with the same pixels. Once the .blend is saved, '//airmass/' resolves: the EXR written
+    there holds exactly the packed pixels."""
+    import numpy as np
+    bpy.ops.wm.read_homefile(use_empty=False)
+    scene = bpy.context.scene
+    s = scene.airmass
+    check(bpy.data.filepath == "" and s.output_folder == "//airmass/", "not a new file with factory defaults: %r %r"
+          % (bpy.data.filepath, s.output_folder))
+    check(s.sky_width == 1024, "factory sky width %d" % s.sky_width)
+    cwd_before = sorted(os.listdir(os.getcwd()))
+    check(bpy.ops.airmass.generate_sky() == {"FINISHED"}, "first Generate Sky in an unsaved file failed")
+    img = scene.world.node_tree.nodes["Airmass Sky"].image
+    check(img is not None and img.packed_file is not None and img.is_float, "image not packed")
+    check(tuple(img.size) == (1024, 512) and img.filepath_raw == "", "image %s %r" % (tuple(img.size),
+                                                                                     img.filepath_raw))
+    check(sorted(os.listdir(os.getcwd())) == cwd_before, "files written next to the working folder")
+    px = _image_pixels(img)
+    check(np.isfinite(px).all() and px[..., :3].max() > 0.0 and (px[..., 3] == 1.0).all(), "sky pixels")
+    meta = {k: img[k] for k in img.keys() if k.startswith("airmass:")}
+    check("airmass:version" in meta and "airmass:scene" in meta, "metadata %s" % sorted(meta))
+    # Save, reload: still packed, the same pixels, the same metadata.
+    folder = os.path.join(Ctx.tmp, "unsaved")
+    os.makedirs(folder, exist_ok=True)
+    blend = os.path.join(folder, "sky.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    scene = bpy.context.scene
+    img = scene.world.node_tree.nodes["Airmass Sky"].image
+    check(img is not None and img.packed_file is not None, "image not packed after reload")
+    check(np.array_equal(_image_pixels(img), px), "pixels changed by save + reload")
+    check({k: img[k] for k in img.keys() if k.startswith("airmass:")} == meta, "metadata changed by reload")
+    check(sorted(os.listdir(folder)) == ["sky.blend"], "files next to the .blend: %s" % os.listdir(folder))
+    # Saved: '//airmass/' now resolves, and the EXR there is the packed image.
+    s = scene.airmass
+    s.sky_width = 128
+    check(bpy.ops.airmass.generate_sky() == {"FINISHED"}, "Generate Sky in the saved file failed")
+    img = scene.world.node_tree.nodes["Airmass Sky"].image
+    exr = os.path.join(folder, "airmass", "%s_sky.exr" % bpy.path.clean_name(scene.name))
+    check(os.path.isfile(exr), "EXR not written to %s" % exr)
+    check(files_in(os.path.join(folder, "airmass")) == [exr], "files %s" % files_in(os.path.join(folder, "airmass")))
+    check(img.packed_file is not None and tuple(img.size) == (128, 64), "new image not packed")
+    import OpenImageIO as oiio  # Debian's Blender sees the system's Python modules
+    buf = oiio.ImageBuf(exr)
+    spec = buf.spec()
+    check((spec.width, spec.height, spec.nchannels, str(spec.format)) == (128, 64, 4, "float"),
+          "EXR %dx%d×%d %s" % (spec.width, spec.height, spec.nchannels, spec.format))
+    on_disk = np.asarray(buf.get_pixels(oiio.FLOAT)).reshape(64, 128, 4)  # top row first
+    check(np.array_equal(on_disk[::-1], _image_pixels(img)), "the saved EXR differs from the packed pixels")
+    check(len([i for i in bpy.data.images if i.name.startswith("Airmass Sky")]) == 1,
+          "images duplicated: %s" % [i.name for i in bpy.data.images])
 
 
 @test
@@ -580,7 +671,16 @@ def test_vdb_volume():
     check(bpy.ops.airmass.create_volume(mode="VDB") == {"FINISHED"}, "create_volume VDB failed")
     objs = _atmosphere_objects(scene)
     check(len(objs) >= 1 and all(o.type == "VOLUME" for o in objs), "volume objects: %s" % objs)
-    import pyopenvdb
+    # The add-on wrote the files itself, with this Blender's OpenVDB module (the library has none).
+    vdb_host = __import__(ADDON + ".vdb_host", fromlist=["x"])
+    pyopenvdb = vdb_host.openvdb_module()
+    check(pyopenvdb is not None and pyopenvdb.__name__ == ("openvdb" if bpy.app.version >= (4, 4, 0)
+                                                           else "pyopenvdb"), "OpenVDB module %s" % pyopenvdb)
+    check(Ctx.native.has_vdb(), "airmass_has_vdb: the library reports no volume functions")
+    check(not any("airmass-tmp" in f for f in files_in(out)), "temporaries left: %s" % files_in(out))
+    check(sorted(bpy.path.abspath(o.data.filepath) for o in objs) == [f for f in files_in(out) if f.endswith(".vdb")],
+          "files %s vs volumes" % files_in(out))
+    plan = __import__(ADDON + ".volume", fromlist=["x"]).VdbPlan(bpy.context)
     for obj in objs:
         vol = obj.data
         check(vol.render.clipping == 0.0, "clipping %g" % vol.render.clipping)
@@ -608,6 +708,18 @@ def test_vdb_volume():
             attr = [n for n in obj.active_material.node_tree.nodes
                     if n.bl_idname == "ShaderNodeAttribute" and n.attribute_name == name]
             check(len(attr) == 1, "attribute node for %s" % name)
+        # Every grid in the file holds the library's values over its box, active exactly where
+        # they are nonzero (copyFromArray with tolerance 0), and nothing outside the box.
+        for grid in pyopenvdb.readAll(path)[0]:
+            lo, hi = grid.evalActiveVoxelBoundingBox()
+            want = Ctx.native.vdb_grid_values(plan.spec, grid.name, lo, hi, **plan.options())
+            import numpy as np
+            got = np.zeros(want.shape, dtype=np.float32)
+            grid.copyToArray(got, ijk=lo)
+            check(np.array_equal(got, want), "%s: values differ from the library's (max |d| %g)"
+                  % (grid.name, float(np.abs(got - want).max())))
+            check(grid.activeVoxelCount() == int((want != 0).sum()) > 0, "%s: %d active vs %d nonzero"
+                  % (grid.name, grid.activeVoxelCount(), int((want != 0).sum())))
     before = data_snapshot()
     files_before = files_in(out)
     check(bpy.ops.airmass.create_volume(mode="VDB") == {"FINISHED"}, "second create_volume VDB failed")
@@ -617,6 +729,97 @@ def test_vdb_volume():
     rgb, mean, sec = render_tiny(scene, os.path.join(out, "render_vdb.exr"))
     print("    VDB render: mean %.4g, %.2f s" % (mean, sec))
 
+
+
+def _vdb_view_scene(name):
+    scene, out = fresh_scene(name)
+    s = scene.airmass
+    s.volume_region = "VIEW"
+    s.view_distance = 40.0
+    s.voxel_size = 1.0
+    ground_camera(scene, pitch_deg=4.0)
+    return scene, out
+
+
+@test
+def test_vdb_cancel_leaves_nothing():
+    """Esc (the job's cancel) during the plan, during the blocks, and while the file is being
+    written: no file, no temporary, no datablock."""
+    scene, out = _vdb_view_scene("vdb_cancel")
+    n = Ctx.native
+    volume = __import__(ADDON + ".volume", fromlist=["x"])
+    vdb_host = __import__(ADDON + ".vdb_host", fromlist=["x"])
+    before = data_snapshot()
+    real_module = vdb_host.openvdb_module
+    for when in ("plan", "blocks", "write"):
+        plan = volume.VdbPlan(bpy.context)
+        seen = []
+        if when == "plan":
+            prog = n.Progress(lambda f: seen.append(f) or True)  # the first report cancels
+        elif when == "blocks":
+            prog = n.Progress(lambda f: seen.append(f) or f > vdb_host.PLAN_SHARE)
+        else:
+            prog = n.Progress(lambda f: seen.append(f) and False)
+            wrote = []
+
+            class CancelAfterWrite:  # the module, whose write is followed by the user's Esc
+                def __init__(self, m):
+                    self.m = m
+
+                def __getattr__(self, k):
+                    return getattr(self.m, k)
+
+                def write(self, path, grids, metadata=None):
+                    self.m.write(path, grids, metadata=metadata)
+                    wrote.append(path)
+                    check(os.path.isfile(path), "the temporary %s was not written" % path)
+                    prog.cancel()
+
+            module = real_module()
+            vdb_host.openvdb_module = lambda: CancelAfterWrite(module)
+        try:
+            plan.work(prog)
+            raise AssertionError("not cancelled (%s)" % when)
+        except n.NativeError as e:
+            check(e.cancelled, "%s: status %s: %s" % (when, e.status, e))
+            plan.abort()
+        finally:
+            vdb_host.openvdb_module = real_module
+            prog.close()
+        check(seen, "%s: no progress reported" % when)
+        if when == "blocks":
+            check(any(f > vdb_host.PLAN_SHARE for f in seen), "blocks never started: %s" % seen)
+        if when == "write":
+            check(wrote and all(".airmass-tmp-" in os.path.basename(w) for w in wrote), "wrote %s" % wrote)
+        check(files_in(out) == [], "files after a cancel during the %s: %s" % (when, files_in(out)))
+        check(data_snapshot() == before, "datablocks after a cancel during the %s" % when)
+    # The operator still works afterwards.
+    check(bpy.ops.airmass.create_volume(mode="VDB") == {"FINISHED"}, "create_volume VDB after cancels")
+
+
+@test
+def test_vdb_without_openvdb_module():
+    """A Blender without an OpenVDB Python module: VDB mode says so and offers the analytic
+    volume (which works); nothing is written or created."""
+    scene, out = _vdb_view_scene("vdb_nomodule")
+    vdb_host = __import__(ADDON + ".vdb_host", fromlist=["x"])
+    saved = {k: sys.modules.get(k) for k in vdb_host.MODULE_NAMES}
+    try:
+        for k in vdb_host.MODULE_NAMES:
+            sys.modules[k] = None  # `import openvdb` / `import pyopenvdb` now raise ImportError
+        check(vdb_host.openvdb_module() is None, "the module is still found")
+        msg = _expect_error(lambda: bpy.ops.airmass.create_volume(mode="VDB"), "no OpenVDB Python module", out)
+        check("use the Analytic volume" in msg, "the message offers no way out: %r" % msg)
+        check(vdb_host.unavailable_reason() and "Analytic" in vdb_host.unavailable_reason(), "unavailable_reason")
+        check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "the analytic volume without OpenVDB")
+        check(files_in(out) == [], "files written without OpenVDB: %s" % files_in(out))
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                sys.modules.pop(k, None)
+            else:
+                sys.modules[k] = v
+    check(vdb_host.openvdb_module() is not None, "the module is not found again")
 
 def _expect_error(op_call, needle, out):
     """The operator must fail with a report containing `needle`, change no datablock and
@@ -658,7 +861,14 @@ def test_bad_input():
     _expect_error(lambda: bpy.ops.airmass.generate_sky(), "Output Folder is not set", out)
     _expect_error(lambda: bpy.ops.airmass.create_volume(mode="VDB"), "Output Folder is not set", out)
     s.output_folder = "//relative/"
-    _expect_error(lambda: bpy.ops.airmass.generate_sky(), "not saved", out)
+    # The sky needs no file (it is packed into the .blend): it works and writes nothing; the
+    # VDB needs its files and says why it cannot have them.
+    _expect_error(lambda: bpy.ops.airmass.create_volume(mode="VDB"), "not saved", out)
+    files_before = files_in(Ctx.tmp)
+    check(bpy.ops.airmass.generate_sky() == {"FINISHED"}, "generate_sky with //relative/ in an unsaved file")
+    img = scene.world.node_tree.nodes["Airmass Sky"].image
+    check(img.packed_file is not None and img.filepath_raw == "", "sky not packed / has a file %r" % img.filepath_raw)
+    check(files_in(Ctx.tmp) == files_before, "files written: %s" % sorted(set(files_in(Ctx.tmp)) - set(files_before)))
     # Not writable even for root: below a regular file, and inside /proc.
     blocker = os.path.join(out, "a_file")
     with open(blocker, "w") as f:
@@ -705,6 +915,7 @@ def test_library_fails_to_load():
             os.environ[n.LIBRARY_ENV] = path
             n.reset()
             check(n.load_error() and needle in n.load_error(), "load_error %r" % n.load_error())
+            check("OpenImageIO" not in n.load_error(), "stale dependency hint: %r" % n.load_error())
             for op in (lambda: bpy.ops.airmass.generate_sky(), lambda: bpy.ops.airmass.sun_sync(),
                        lambda: bpy.ops.airmass.create_volume(mode="ANALYTIC"),
                        lambda: bpy.ops.airmass.create_volume(mode="VDB")):
@@ -728,37 +939,56 @@ def test_cancel_and_progress():
     n = Ctx.native
     props = __import__(ADDON + ".properties", fromlist=["x"])
     spec = props.make_spec(scene.airmass)
-    path = os.path.join(out, "cancelled.exr")
-    # The callback cancels at its first call: no file, no temporary.
+    # The callback cancels at its first call.
     seen = []
     prog = n.Progress(lambda f: seen.append(threading.get_ident()) or True)
     try:
-        n.write_sky_exr(spec, path, width=2048, view_samples=64, grid=0, progress=prog)
+        n.render_sky(spec, width=2048, view_samples=64, grid=0, progress=prog)
         raise AssertionError("not cancelled")
     except n.NativeError as e:
         check(e.cancelled, "status %s: %s" % (e.status, e))
     finally:
         prog.close()
     check(seen and all(t == threading.get_ident() for t in seen), "progress not on the calling thread")
-    check(files_in(out) == [], "files after cancel: %s" % files_in(out))
     # The token, from another thread.
     prog = n.Progress(None)
     threading.Timer(0.05, prog.cancel).start()
+    t0 = time.time()
     try:
-        n.write_sky_exr(spec, path, width=4096, view_samples=64, grid=0, progress=prog)
+        n.render_sky(spec, width=4096, view_samples=64, grid=0, progress=prog)
         raise AssertionError("not cancelled by the token")
     except n.NativeError as e:
         check(e.cancelled, "status %s: %s" % (e.status, e))
     finally:
         prog.close()
-    check(files_in(out) == [], "files after token cancel: %s" % files_in(out))
+    check(time.time() - t0 < 30.0, "the token took %.1f s to stop the sky" % (time.time() - t0))
     # Progress reaches 1 on success.
     fractions = []
     prog = n.Progress(lambda f: fractions.append(f) and False)
-    n.write_sky_exr(spec, path, width=64, progress=prog)
+    px, _ = n.render_sky(spec, width=64, progress=prog)
     prog.close()
     check(fractions and fractions[-1] == 1.0 and fractions == sorted(fractions), "fractions %s" % fractions)
-    check(os.path.isfile(path), "sky not written")
+    check(px.shape == (32, 64, 4) and px[..., :3].max() > 0.0, "sky after progress")
+    # The operator's plan, cancelled: the previous image, World and file stay as they were.
+    check(bpy.ops.airmass.generate_sky() == {"FINISHED"}, "generate_sky before the cancel")
+    world = __import__(ADDON + ".world", fromlist=["x"])
+    env = scene.world.node_tree.nodes["Airmass Sky"]
+    old_image, old_pixels = env.image, _image_pixels(env.image)
+    before, files_before = data_snapshot(), files_in(out)
+    scene.airmass.sky_width, scene.airmass.view_samples, scene.airmass.sky_grid = 4096, 64, 0
+    plan = world.SkyPlan(bpy.context)
+    prog = n.Progress(lambda f: True)
+    try:
+        plan.finish(bpy.context, plan.work(prog))
+        raise AssertionError("the plan was not cancelled")
+    except n.NativeError as e:
+        check(e.cancelled, "status %s: %s" % (e.status, e))
+        plan.abort()
+    finally:
+        prog.close()
+    check(data_snapshot() == before, "datablocks changed by a cancelled sky: %s vs %s" % (data_snapshot(), before))
+    check(env.image == old_image and (_image_pixels(env.image) == old_pixels).all(), "the previous image changed")
+    check(files_in(out) == files_before, "files changed by a cancelled sky: %s" % files_in(out))
 
 
 @test
@@ -846,15 +1076,50 @@ def _check_compare_result(scene, out, paths):
     return folder, stats, images
 
 
+def _no_system_python():
+    """PATH with stand-in `python3` and `python` first, which fail and leave a mark: Compare
+    with Native must not need them (this Blender renders and runs the report). Returns the
+    mark's path and a function restoring PATH."""
+    bin_dir = os.path.join(Ctx.tmp, "no-python-bin")
+    mark = os.path.join(Ctx.tmp, "system-python-was-run")
+    os.makedirs(bin_dir, exist_ok=True)
+    for name in ("python3", "python"):
+        f = os.path.join(bin_dir, name)
+        with open(f, "w") as fh:
+            fh.write("#!/bin/sh\necho \"$0 $*\" >> '%s'\nexit 1\n" % mark)
+        os.chmod(f, 0o755)
+    old = os.environ.get("PATH", "")
+    os.environ["PATH"] = bin_dir + os.pathsep + old
+
+    def restore():
+        os.environ["PATH"] = old
+    return mark, restore
+
+
 @test
 def test_compare_sky_texture():
     scene, out = _compare_setup("compare", {"SKY_TEXTURE"})
     cmp = _compare_module()
     check(cmp.available(), "Compare with Native unavailable: %s" % cmp.availability())
+    plan = cmp.ComparePlan(bpy.context)
+    plan.work_dir = "/nonexistent"
+    argv = plan.command("scene.toml")
+    check(argv[argv.index("--blender") + 1] == bpy.app.binary_path and "--python" not in argv,
+          "the CLI must get this Blender for renders and report, and no --python: %s" % argv)
+    mark, restore_path = _no_system_python()
     t0 = time.time()
-    check(bpy.ops.airmass.compare() == {"FINISHED"}, "compare failed")
+    try:
+        check(bpy.ops.airmass.compare() == {"FINISHED"}, "compare failed")
+    finally:
+        restore_path()
     t1 = time.time()
+    check(not os.path.exists(mark), "Compare with Native ran the system Python: %s"
+          % (open(mark).read() if os.path.exists(mark) else ""))
     folder, stats, images = _check_compare_result(scene, out, ["sky_texture"])
+    with open(os.path.join(folder, "report.md"), encoding="utf-8") as f:
+        made_by = [ln for ln in f if ln.startswith("Made by report.py")]
+    check(len(made_by) == 1 and "'s image API (bpy)" in made_by[0],
+          "the report did not run in this Blender: %s" % made_by)
     e = stats["sky_texture"]
     # The accuracy itself is tests/python/test_compare.py's to assert (at a size and sample
     # count where it means something); here: the add-on drives the same comparison.

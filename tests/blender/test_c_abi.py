@@ -3,8 +3,8 @@
     /usr/bin/python3 tests/blender/test_c_abi.py --lib build/lib/libairmass_c.so
 
 Through ctypes, the way the add-on uses it, plus raw calls that a careless host could make:
-NULL pointers, wrong struct sizes, tiny or absent message buffers, an unwritable output —
-each a status and a message, never a crash. The sun transmittance is checked against an
+NULL pointers, wrong struct sizes, tiny or absent message buffers, a sky buffer of the wrong
+size or none, an unwritable output — each a status and a message, never a crash. The sun transmittance is checked against an
 independent quadrature (scipy) of a one-constituent atmosphere. Exit status 1 on failure.
 """
 
@@ -94,14 +94,15 @@ def test_null_and_struct_size():
     one = ctypes.create_string_buffer(b"y", 1)
     lib.airmass_validate_scene(None, None, one, 1)
     assert one.raw == b"\0"
-    # Long calls with NULL options / path.
+    # Long calls with NULL options / buffer.
     lib.airmass_scene_spec_init(ctypes.byref(spec))
     spec.preset = b"earth"
-    st = lib.airmass_write_sky_exr(ctypes.byref(spec), None, b"/tmp/x.exr", None, buf, 256)
-    assert st == native.INVALID_ARGUMENT, st
+    pixels = (ctypes.c_float * (64 * 32 * 4))()
+    st = lib.airmass_render_sky(ctypes.byref(spec), None, pixels, 64 * 32 * 4, None, None, buf, 256)
+    assert st == native.INVALID_ARGUMENT and b"sky_options" in buf.value, (st, buf.value)
     opts = native.SkyOptions()
     lib.airmass_sky_options_init(ctypes.byref(opts))
-    st = lib.airmass_write_sky_exr(ctypes.byref(spec), ctypes.byref(opts), None, None, buf, 256)
+    st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), None, 0, None, None, buf, 256)
     assert st == native.INVALID_ARGUMENT, st
     st = lib.airmass_sun_light_at_observer(ctypes.byref(spec), None, None, buf, 256)
     assert st == native.INVALID_ARGUMENT, st
@@ -164,37 +165,29 @@ def test_sun_transmittance_vs_quadrature():
     assert light["below_horizon"] and light["irradiance_rgb"] == (0.0, 0.0, 0.0), light
 
 
-def test_unwritable_and_atomic():
-    tmp = tempfile.mkdtemp()
-    blocker = os.path.join(tmp, "file")
-    open(blocker, "w").close()
+def test_settings_errors_name_the_option():
+    """ABI 3 writes no file (the host does), so there is no I/O error left to report; bad
+    settings are refused with the option named, before any work."""
     s = native.Spec(preset="earth")
-    expect_error(lambda: native.write_sky_exr(s, os.path.join(blocker, "sky.exr"), width=32), native.IO_ERROR,
-                 "sky.exr")
-    expect_error(lambda: native.write_sky_exr(s, os.path.join(tmp, "sky.png"), width=32), native.IO_ERROR, ".exr")
-    expect_error(lambda: native.write_vdb(s, os.path.join(blocker, "a.vdb"), region="planet", voxel_size=50.0),
-                 native.IO_ERROR, "a.vdb")
-    assert sorted(os.listdir(tmp)) == ["file"], os.listdir(tmp)
-    # Settings errors name the option.
-    expect_error(lambda: native.write_sky_exr(s, os.path.join(tmp, "sky.exr"), width=0), native.SETTINGS_ERROR,
-                 "width")
-    expect_error(lambda: native.write_vdb(s, os.path.join(tmp, "a.vdb"), region="planet", voxel_size=-1.0),
-                 native.SETTINGS_ERROR, "voxel")
-    expect_error(lambda: native.write_vdb(s, os.path.join(tmp, "a.vdb"), region="moon"),
-                 native.INVALID_ARGUMENT, "planet, view or box")
-    assert sorted(os.listdir(tmp)) == ["file"], os.listdir(tmp)
+    expect_error(lambda: native.render_sky(s, width=0), native.SETTINGS_ERROR, "width")
+    expect_error(lambda: native.vdb_plan(s, region="planet", voxel_size=-1.0), native.SETTINGS_ERROR, "voxel")
+    expect_error(lambda: native.vdb_plan(s, region="moon"), native.INVALID_ARGUMENT, "planet, view or box")
 
 
 def test_concurrent_calls():
-    tmp = tempfile.mkdtemp()
-    errors = []
+    """Four skies at once (different suns) equal the same skies rendered one after another."""
+    import numpy as np
+    results, errors = {}, []
+
+    def spec(i):
+        s = native.Spec(preset="earth")
+        s.sun_elevation_deg = 10.0 * i
+        return s
 
     def work(i):
         try:
-            s = native.Spec(preset="earth")
-            s.sun_elevation_deg = 10.0 * i
-            native.write_sky_exr(s, os.path.join(tmp, "sky%d.exr" % i), width=64, view_samples=4)
-            native.sun_light(s)
+            results[i] = native.render_sky(spec(i), width=64, view_samples=4)[0]
+            native.sun_light(spec(i))
         except Exception as e:  # noqa: BLE001
             errors.append(e)
 
@@ -204,7 +197,63 @@ def test_concurrent_calls():
     for t in threads:
         t.join()
     assert not errors, errors
-    assert sorted(os.listdir(tmp)) == ["sky%d.exr" % i for i in range(4)], os.listdir(tmp)
+    assert sorted(results) == [0, 1, 2, 3], sorted(results)
+    for i in range(4):
+        serial = native.render_sky(spec(i), width=64, view_samples=4)[0]
+        assert np.array_equal(results[i], serial), (i, float(np.abs(results[i] - serial).max()))
+    assert not np.array_equal(results[0], results[3]), "the sun elevation changed nothing"
+
+
+def test_render_sky_buffer():
+    """airmass_render_sky writes width·height RGBA floats, rows from the top: A = 1, RGB finite
+    and ≥ 0, the zenith row brighter in blue than red at noon (Rayleigh), the ground dark
+    below a bright sky; refuses a wrong float_count or a NULL buffer naming the field."""
+    import numpy as np
+    lib = native.library()
+    s = native.Spec(preset="earth")
+    s.sun_elevation_deg = 60.0
+    px, meta = native.render_sky(s, width=64, view_samples=8, sun_disc=True)
+    assert px.shape == (32, 64, 4) and px.dtype == np.float32, (px.shape, px.dtype)
+    assert np.isfinite(px).all() and (px[..., :3] >= 0.0).all()
+    assert (px[..., 3] == 1.0).all()
+    zenith = px[0, :, :3].mean(axis=0)
+    assert zenith[2] > 1.5 * zenith[0] > 0.0, zenith  # row 0 looks up: a blue sky
+    # Rows from the top, Blender's equirectangular columns: the brightest pixel (the sun disc)
+    # is toward the sun — rotation 0 = +Y, a quarter from the left — at 60° elevation,
+    # i.e. row (90 − 60)/180 · 32 − ½ ≈ 4.8 (a flipped image would put it at row 27).
+    lum = px[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    row, col = np.unravel_index(int(np.argmax(lum)), lum.shape)
+    assert abs(row - 4.83) <= 1.5 and abs(col - 15.5) <= 1.5, (row, col)
+    assert meta.get("airmass:version") == native.version(), meta.get("airmass:version")
+    assert '"width":64' in meta.get("airmass:settings", "").replace(" ", ""), meta.get("airmass:settings")
+    # The raw call, the way a careless host would make it.
+    spec, keep = s._to_c(lib)
+    opts = native.SkyOptions()
+    lib.airmass_sky_options_init(ctypes.byref(opts))
+    opts.width, opts.height, opts.view_samples = 16, 8, 2
+    buf = ctypes.create_string_buffer(512)
+    good = 16 * 8 * 4
+    storage = (ctypes.c_float * (good + 8))()
+    for count in (good - 4, good + 4, 16 * 16 * 4, 0):
+        st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), storage, count, None, None, buf, 512)
+        assert st == native.INVALID_ARGUMENT, (count, st, buf.value)
+        assert (b"float_count = %d" % count) in buf.value and str(good).encode() in buf.value, buf.value
+    st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), None, good, None, None, buf, 512)
+    assert st == native.INVALID_ARGUMENT and b"rgba" in buf.value and b"NULL" in buf.value, (st, buf.value)
+    # The right count works, with and without metadata, and fills every float.
+    for k in range(good + 8):
+        storage[k] = -7.0
+    out = ctypes.c_void_p()
+    st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), storage, good, None, ctypes.byref(out),
+                                buf, 512)
+    assert st == native.OK, buf.value
+    assert out.value and b"airmass:version" in ctypes.string_at(out.value)
+    lib.airmass_string_free(out.value)
+    assert all(storage[k] >= 0.0 for k in range(good)), "a float of the buffer was not written"
+    assert all(storage[k] == -7.0 for k in range(good, good + 8)), "written past float_count"
+    st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), storage, good, None, None, buf, 512)
+    assert st == native.OK, buf.value
+    del keep
 
 
 def test_analytic_density_and_vdb():
@@ -219,15 +268,19 @@ def test_analytic_density_and_vdb():
     mie2 = d2["constituents"][1]
     assert abs(mie2["scattering_rgb"][1] - 2.0 * mie1["scattering_rgb"][1]) < 1e-15
     assert mie2["profile"]["scale_height"] == 1.5
-    tmp = tempfile.mkdtemp()
+    import numpy as np
     seen = []
     p = native.Progress(lambda f: seen.append(f) and False)
-    stats = native.write_vdb(native.Spec(preset="earth"), os.path.join(tmp, "a.vdb"), progress=p,
-                             region="box", box=(-20, -20, 0, 20, 20, 20), voxel_size=2.0)
+    box = dict(region="box", box=(-20, -20, 0, 20, 20, 20), voxel_size=2.0)
+    plan = native.vdb_plan(native.Spec(preset="earth"), progress=p, **box)
     p.close()
-    assert stats["files"] and all(os.path.isfile(f) for f in stats["files"]), stats
-    assert stats["voxel_size"] == 2.0 and stats["active_voxels"] > 0
+    assert plan["voxel_size"] == 2.0 and plan["active_voxels"] > 0, plan.get("summary")
     assert seen and seen[-1] == 1.0
+    # The grid's dense block holds exactly the plan's active voxels (0 elsewhere), all finite.
+    g = plan["grids"][0]
+    values = native.vdb_grid_values(native.Spec(preset="earth"), g["name"], g["bbox_min"], g["bbox_max"], **box)
+    assert np.isfinite(values).all() and (values >= 0).all()
+    assert int(np.count_nonzero(values)) == g["active_voxels"], (np.count_nonzero(values), g["active_voxels"])
 
 
 def test_sky_multiple_scattering_switch():
@@ -235,20 +288,17 @@ def test_sky_multiple_scattering_switch():
     amount everywhere above the horizon; on the half of the sky away from the sun (the Earth's
     shadow at twilight) relatively more at sun -6° than at 45°."""
     import numpy as np
-    import OpenImageIO as oiio
-    tmp = tempfile.mkdtemp()
     s = native.Spec(preset="earth")
     gains = {}
     for elevation in (45.0, -6.0):
         s.sun_elevation_deg = elevation
         imgs = {}
         for ms in (False, True):
-            path = os.path.join(tmp, "sky_%g_%d.exr" % (elevation, ms))
-            native.write_sky_exr(s, path, width=64, view_samples=8, sun_disc=False, multiple_scattering=ms)
-            buf = oiio.ImageBuf(path)
-            # the upper hemisphere, the half of the azimuths centred on -Y (the sun, rotation 0, is at +Y)
-            imgs[ms] = np.asarray(buf.get_pixels(oiio.FLOAT))[:16, 32:, :3]
-            meta = buf.spec().get_string_attribute("airmass:settings").replace(" ", "")
+            px, meta_dict = native.render_sky(s, width=64, view_samples=8, sun_disc=False, multiple_scattering=ms)
+            # the upper hemisphere (rows from the top), the half of the azimuths centred on -Y
+            # (the sun, rotation 0, is at +Y)
+            imgs[ms] = px[:16, 32:, :3]
+            meta = meta_dict.get("airmass:settings", "").replace(" ", "")
             assert ('"multiple_scattering":%s' % ("true" if ms else "false")) in meta, meta[:400]
         assert np.isfinite(imgs[True]).all() and (imgs[True] >= imgs[False] - 1e-6).all()
         gains[elevation] = imgs[True].sum() / imgs[False].sum()
@@ -262,8 +312,8 @@ def main():
     os.environ[native.LIBRARY_ENV] = os.path.abspath(args.lib)
     native.reset()
     for fn in (test_version, test_null_and_struct_size, test_scene_errors_name_fields,
-               test_sun_transmittance_vs_quadrature, test_unwritable_and_atomic, test_concurrent_calls,
-               test_analytic_density_and_vdb, test_sky_multiple_scattering_switch):
+               test_sun_transmittance_vs_quadrature, test_settings_errors_name_the_option, test_concurrent_calls,
+               test_render_sky_buffer, test_analytic_density_and_vdb, test_sky_multiple_scattering_switch):
         case(fn)
     if FAILURES:
         print("FAILED:", ", ".join(FAILURES))

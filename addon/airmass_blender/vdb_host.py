@@ -1,0 +1,226 @@
+"""The atmosphere's OpenVDB grids, written through the running Blender's own OpenVDB module.
+
+The native library carries no OpenVDB (it must load in any Blender): it plans the volume and
+returns each grid's densities as dense float blocks (native.vdb_plan, native.vdb_grid_values;
+airmass_c.h "Volumes"). This module turns them into grids and files with the OpenVDB Python
+module the running Blender has:
+
+    Blender ≥ 4.4 (OpenVDB 12, nanobind)  `openvdb`
+    Blender 3.x – 4.3, Debian's 3.4       `pyopenvdb`
+
+— the same calls in both (FloatGrid, copyFromArray(array, ijk, tolerance), the transform,
+gridClass, metadata items, write(filename, grids, metadata)). The values are copied block by
+block (slabs of whole 8-voxel leaves along i) with tolerance 0: a voxel is active exactly when
+the library's value is nonzero, as in the grids `airmass vdb` writes, so both give the same
+grids, transforms and metadata.
+
+Files are written atomically: each to a hidden temporary in the destination folder, all moved
+into place (os.replace) only after the last was written; a failure or a cancel removes the
+temporaries, so nothing half-made is left. Pure Python (numpy + the OpenVDB module, no bpy):
+it runs on the operator's worker thread.
+"""
+
+import importlib
+import itertools
+import os
+
+from . import native
+
+MODULE_NAMES = ("openvdb", "pyopenvdb")
+NO_MODULE_MESSAGE = ("this Blender has no OpenVDB Python module (neither 'openvdb' nor 'pyopenvdb' imports); "
+                     "use the Analytic volume instead")
+
+# Share of the progress bar taken by the plan (the library's sampling pass); the blocks take the rest.
+PLAN_SHARE = 0.4
+# Largest dense block requested at once (floats): 16 MiB.
+BLOCK_FLOATS = 4 << 20
+
+_counter = itertools.count()
+
+
+def openvdb_module():
+    """The OpenVDB Python module of this Blender, or None."""
+    for name in MODULE_NAMES:
+        try:
+            module = importlib.import_module(name)
+        except ImportError:
+            continue
+        grid = getattr(module, "FloatGrid", None)
+        if grid is not None and hasattr(grid, "copyFromArray") and hasattr(module, "write") \
+                and hasattr(module, "createLinearTransform"):
+            return module
+    return None
+
+
+def unavailable_reason():
+    """None when VDB volumes can be written here, else the message for the user."""
+    return None if openvdb_module() is not None else NO_MODULE_MESSAGE
+
+
+class NoOpenVdbModule(RuntimeError):
+    pass
+
+
+def require_module():
+    module = openvdb_module()
+    if module is None:
+        raise NoOpenVdbModule(NO_MODULE_MESSAGE)
+    return module
+
+
+def temporary_path(dest):
+    """A hidden temporary beside `dest` (same folder, so os.replace is atomic)."""
+    folder, name = os.path.split(dest)
+    stem, ext = os.path.splitext(name)
+    return os.path.join(folder, ".%s.airmass-tmp-%d-%d%s" % (stem, os.getpid(), next(_counter), ext))
+
+
+def slabs(bbox_min, bbox_max, max_floats=BLOCK_FLOATS):
+    """Index boxes splitting [bbox_min, bbox_max] along i at multiples of 8 (OpenVDB's leaves
+    stay whole), each of at most max_floats voxels unless a single 8-voxel layer is larger."""
+    ny = bbox_max[1] - bbox_min[1] + 1
+    nz = bbox_max[2] - bbox_min[2] + 1
+    layers = max(1, max_floats // max(1, ny * nz * 8))  # 8-voxel layers per slab
+    out = []
+    i = bbox_min[0]
+    while i <= bbox_max[0]:
+        end = min(bbox_max[0], (i // 8 + layers) * 8 - 1)
+        out.append(((i, bbox_min[1], bbox_min[2]), (end, bbox_max[1], bbox_max[2])))
+        i = end + 1
+    return out
+
+
+def meta_value(value, kind):
+    """A plan metadata value as the Python type OpenVDB's module stores with that type."""
+    if kind == "string":
+        return str(value)
+    if kind == "double":
+        return float(value)
+    if kind == "int32":
+        return int(value)
+    if kind == "vec3d":
+        return tuple(float(x) for x in value)
+    raise ValueError("unknown metadata type %r" % kind)
+
+
+def metadata_of(entry):
+    types = entry["metadata_types"]
+    return {k: meta_value(v, types[k]) for k, v in entry["metadata"].items()}
+
+
+def make_transform(vdb, transform):
+    """OpenVDB's linear transform of the plan (voxel size, translation)."""
+    v = transform["voxel_size"]
+    t = transform.get("translation", (0.0, 0.0, 0.0))
+    if v[0] == v[1] == v[2] and not any(t):
+        return vdb.createLinearTransform(float(v[0]))
+    return vdb.createLinearTransform([[float(x) for x in row] for row in transform["matrix"]])
+
+
+class _Reporter:
+    """Overall progress of a several-call task on one native.Progress (its fraction, its callback,
+    its cancel token)."""
+
+    def __init__(self, progress):
+        self.progress = progress
+
+    def at(self, fraction):
+        p = self.progress
+        if p is None:
+            return
+        p.fraction = fraction
+        if p.callback is not None:
+            try:
+                stop = p.callback(fraction)
+            except Exception:  # noqa: BLE001 — a failing callback stops the work
+                stop = True
+            if stop:
+                p.cancel()
+        self.check()
+
+    def check(self):
+        if self.progress is not None and self.progress.cancel_requested:
+            raise native.NativeError(native.CANCELLED, "VDB volume cancelled")
+
+
+class Written:
+    """What write_volume made: the plan, the files (vdb files then the manifest) and the module used."""
+
+    def __init__(self, plan, files, vdb_files, module_name):
+        self.plan = plan
+        self.files = files
+        self.vdb_files = vdb_files
+        self.module_name = module_name
+
+
+def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
+    """One grid of the plan, filled block by block. `done`/`total`: dense voxels for progress."""
+    g = vdb.FloatGrid(0.0)
+    g.name = grid["name"]
+    g.transform = make_transform(vdb, plan["transform"])
+    g.gridClass = vdb.GridClass.FOG_VOLUME
+    if str(g.gridClass) != plan["grid_class"]:
+        raise RuntimeError("this OpenVDB names the fog volume class %r, the plan %r" % (g.gridClass, plan["grid_class"]))
+    # Full 32-bit floats (thin air needs the mantissa) is OpenVDB's default; setting it would add
+    # an "is_saved_as_half_float" metadata item the library's grids do not have.
+    for lo, hi in slabs(grid["bbox_min"], grid["bbox_max"]):
+        n = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
+        start = PLAN_SHARE + (1.0 - PLAN_SHARE) * done / total
+        end = PLAN_SHARE + (1.0 - PLAN_SHARE) * (done + n) / total
+        reporter.check()
+        values = native.vdb_grid_values(spec, grid["name"], lo, hi, progress=reporter.progress,
+                                        progress_range=(start, end), **options)
+        g.copyFromArray(values, ijk=tuple(int(x) for x in lo), tolerance=0.0)
+        del values
+        done += n
+        reporter.at(end)
+    for key, value in metadata_of(grid).items():
+        g[key] = value
+    if g.activeVoxelCount() != grid["active_voxels"]:
+        raise RuntimeError("grid '%s' of tile %d has %d active voxels, the plan %d" % (
+            grid["name"], grid["tile"], g.activeVoxelCount(), grid["active_voxels"]))
+    return g, done
+
+
+def write_volume(spec, folder, stem, progress=None, **options):
+    """Plans the volume, fills every grid and writes every file of the plan into `folder`
+    atomically. `options`: native._vdb_options keywords (region, unit, voxel_size, box,
+    tolerance, max_dense_mb, tile_voxels). Raises NoOpenVdbModule, native.NativeError (the
+    library's refusals; status CANCELLED when cancelled), OSError; leaves no file then."""
+    vdb = require_module()
+    reporter = _Reporter(progress)
+    plan = native.vdb_plan(spec, file_stem=stem, progress=progress, progress_range=(0.0, PLAN_SHARE), **options)
+    reporter.at(PLAN_SHARE)
+    total = max(1, sum(int(g["dense_voxels"]) for g in plan["grids"]))
+    pending = []  # (temporary, destination)
+    try:
+        done = 0
+        for f in plan["files"]:
+            grids = []
+            for index in f["grids"]:
+                g, done = build_grid(vdb, spec, plan, plan["grids"][index], options, reporter, done, total)
+                grids.append(g)
+            dest = os.path.join(folder, f["name"])
+            tmp = temporary_path(dest)
+            pending.append((tmp, dest))
+            vdb.write(tmp, grids, metadata=metadata_of(f))
+            del grids
+        manifest = plan.get("manifest")
+        if manifest:
+            dest = os.path.join(folder, manifest["name"])
+            tmp = temporary_path(dest)
+            pending.append((tmp, dest))
+            with open(tmp, "w", encoding="utf-8") as out:
+                out.write(manifest["text"])
+        reporter.check()  # the last chance to cancel: nothing is in place yet
+        for tmp, dest in pending:
+            os.replace(tmp, dest)
+    except BaseException:
+        for tmp, _dest in pending:
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+        raise
+    files = [dest for _tmp, dest in pending]
+    return Written(plan, files, [f for f in files if f.endswith(".vdb")], vdb.__name__)
