@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """The comparison report of `airmass compare` (docs/compare.md).
 
-    /usr/bin/python3 compare/report.py DIR
+    blender -b --factory-startup --python-exit-code 1 --python compare/report.py -- DIR
+    /usr/bin/python3 compare/report.py DIR            (any Python with numpy and OpenImageIO)
 
 Reads DIR/job.json (written by `airmass compare`), the native EXRs and the Blender renders
 (blender_<path>_seed<k>.exr, blender_<path>.json) and writes, atomically, DIR/report.md,
@@ -20,14 +21,20 @@ native reference, s = the standard error of B from the K seeds, s = std/sqrt(K))
 An unbiased B has mean |e| ≈ 0.8 · noise_rel (Gaussian noise), so `mean_rel_err ≤ x +
 noise_rel` asserts a bias below x whatever the noise.
 
-Needs numpy, OpenImageIO and matplotlib (Debian's python3 has them). A path that failed keeps
-its "error" in summary.json; the report never fails because one path did.
+Needs numpy, and for the images either Blender's image API (inside Blender: bpy, used
+whenever it is importable) or OpenImageIO (outside Blender). matplotlib is optional: without
+it the side-by-side and error figures are composed with numpy (no text in the PNGs; the
+captions in report.md say what they show). The statistics, summary.json and report.md do not
+depend on the backends but for the one line of report.md that names them ("Made by
+report.py ..."). A path that failed keeps its "error" in summary.json; the report never
+fails because one path did.
 """
 
 import json
 import math
 import os
 import sys
+import tempfile
 import traceback
 
 import numpy as np
@@ -42,21 +49,185 @@ TITLES = {
     "vdb_volume": "VDB volume lit by a Sun lamp",
 }
 FLOOR = 1e-3
+FIGURES = ("native", "blender", "error", "side_by_side")  # png/<path>_<figure>.png
+BACKEND_LINE = "Made by report.py"  # the only line of report.md that depends on the backends
+
+
+# ---- backends: Blender's image API or OpenImageIO; matplotlib or numpy figures ------------------
+
+def _module(name):
+    """The module if it imports, else None (a broken install counts as missing)."""
+    try:
+        return __import__(name)
+    except Exception:  # noqa: BLE001
+        return None
+
+
+class Backends:
+    """Chosen once: bpy for images whenever it is importable (inside Blender), else
+    OpenImageIO; matplotlib for the figures when it is importable, else numpy."""
+
+    def __init__(self):
+        self.bpy = _module("bpy")
+        self.oiio = None if self.bpy is not None else _module("OpenImageIO")
+        if self.bpy is None and self.oiio is None:
+            raise SystemExit("report.py: no image backend: run it inside Blender (blender -b --factory-startup "
+                             "--python report.py -- DIR) or with a Python that has OpenImageIO")
+        self.plt = None
+        mpl = _module("matplotlib")
+        if mpl is not None:
+            try:
+                mpl.use("Agg")
+                import matplotlib.pyplot as plt
+                self.plt = plt
+                self.mpl_version = mpl.__version__
+            except Exception:  # noqa: BLE001
+                self.plt = None
+        self._scene = None
+
+    def describe(self):
+        if self.bpy is not None:
+            images = "images read and written with Blender %s's image API (bpy)" % self.bpy.app.version_string
+        else:
+            images = "images read and written with OpenImageIO %s" % getattr(self.oiio, "__version__", "")
+        if self.plt is not None:
+            figures = "figures drawn with matplotlib %s" % self.mpl_version
+        else:
+            figures = ("figures composed with numpy, matplotlib not being importable (the PNGs hold no text: "
+                       "panel names and the colour scale are in the captions)")
+        return "%s (Python %s): %s; %s." % (BACKEND_LINE, sys.version.split()[0], images, figures)
+
+    # -- EXR in -----------------------------------------------------------------------------
+    def read_exr(self, path):
+        """Linear RGB, H × W × 3 float64, top row first, the file's values unchanged."""
+        if self.bpy is not None:
+            px = self._read_bpy(path)
+        else:
+            buf = self.oiio.ImageBuf(path)
+            if buf.has_error:
+                raise RuntimeError("cannot read %s: %s" % (path, buf.geterror()))
+            px = buf.get_pixels(self.oiio.FLOAT)
+        if px is None or px.ndim != 3 or px.shape[2] < 3:
+            raise RuntimeError("%s: expected an RGB image, got %s" % (path, None if px is None else px.shape))
+        return np.asarray(px[:, :, :3], dtype=np.float64)
+
+    def _read_bpy(self, path):
+        bpy = self.bpy
+        if not os.path.isfile(path):
+            raise RuntimeError("cannot read %s: no such file" % path)
+        img = bpy.data.images.load(path, check_existing=False)
+        try:
+            # Non-Color: the float buffer is the file's numbers, no colour-space conversion
+            # ("Non-Color" in the configs of Blender 3.4 and 4.x; is_data is the same switch).
+            try:
+                img.colorspace_settings.name = "Non-Color"
+            except TypeError:
+                img.colorspace_settings.is_data = True
+            w, h = img.size
+            n = img.channels
+            if w <= 0 or h <= 0 or not img.is_float:
+                raise RuntimeError("cannot read %s as a float image (size %d × %d)" % (path, w, h))
+            buf = np.empty(w * h * n, dtype=np.float32)
+            img.pixels.foreach_get(buf)
+            return buf.reshape(h, w, n)[::-1]  # Blender's rows run bottom to top
+        finally:
+            bpy.data.images.remove(img)
+
+    # -- PNG out ---------------------------------------------------------------------------------
+    def write_png(self, path, rgb01):
+        """An 8-bit RGB PNG of display-referred (sRGB-encoded) values in [0, 1], atomically."""
+        q = np.round(np.clip(np.asarray(rgb01, dtype=np.float64)[..., :3], 0.0, 1.0) * 255.0)
+        tmp = path + ".tmp.png"
+        try:
+            if self.bpy is not None:
+                self._write_bpy(tmp, q / 255.0)
+            else:
+                h, w = q.shape[:2]
+                spec = self.oiio.ImageSpec(w, h, 3, self.oiio.UINT8)
+                out = self.oiio.ImageBuf(spec)
+                out.set_pixels(self.oiio.ROI(0, w, 0, h), q.astype(np.uint8))
+                if not out.write(tmp, "uint8", "png"):
+                    raise RuntimeError("cannot write %s: %s" % (tmp, out.geterror()))
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+
+    def _write_bpy(self, path, display):
+        bpy = self.bpy
+        if self._scene is None:
+            self._scene = self._png_scene()
+        h, w = display.shape[:2]
+        img = bpy.data.images.new("airmass report png", w, h, alpha=False, float_buffer=True)
+        try:
+            px = np.ones((h, w, 4), dtype=np.float32)
+            px[..., :3] = srgb_to_linear(display)[::-1]
+            img.pixels.foreach_set(px.ravel())
+            img.save_render(path, scene=self._scene)
+        finally:
+            bpy.data.images.remove(img)
+
+    def _png_scene(self):
+        """A scene of our own whose view is Standard on an sRGB display, no look, no dither: a
+        float buffer (scene linear) is saved as the sRGB encoding of its values. Checked once
+        on every 8-bit level, so that another Blender's colour management cannot change the
+        figures unnoticed."""
+        bpy = self.bpy
+        sc = bpy.data.scenes.new("airmass report")
+        sc.display_settings.display_device = "sRGB"
+        vs = sc.view_settings
+        vs.view_transform = "Standard"
+        vs.look = "None"
+        vs.exposure = 0.0
+        vs.gamma = 1.0
+        vs.use_curve_mapping = False
+        sc.render.dither_intensity = 0.0
+        f = sc.render.image_settings
+        f.file_format = "PNG"
+        f.color_mode = "RGB"
+        f.color_depth = "8"
+        f.compression = 90
+        levels = np.arange(256, dtype=np.float64)
+        ramp_img = np.repeat(levels[None, :, None] / 255.0, 3, axis=2)
+        img = bpy.data.images.new("airmass report check", 256, 1, alpha=False, float_buffer=True)
+        back = None
+        fd, check_png = tempfile.mkstemp(suffix=".png", prefix="airmass-report-")
+        os.close(fd)
+        try:
+            px = np.ones((1, 256, 4), dtype=np.float32)
+            px[..., :3] = srgb_to_linear(ramp_img)
+            img.pixels.foreach_set(px.ravel())
+            img.save_render(check_png, scene=sc)
+            back = bpy.data.images.load(check_png, check_existing=False)
+            back.colorspace_settings.name = "Non-Color"
+            got = np.empty(len(back.pixels), dtype=np.float32)
+            back.pixels.foreach_get(got)
+            got = np.round(got.reshape(-1, back.channels)[:, :3] * 255.0)
+            worst = float(np.abs(got - levels[:, None]).max())
+            if worst > 1.0:
+                raise RuntimeError("Blender %s saves the report's PNGs with other colours than computed (an 8-bit "
+                                   "level off by %g through the Standard view): colour management differs"
+                                   % (bpy.app.version_string, worst))
+        finally:
+            bpy.data.images.remove(img)
+            if back is not None:
+                bpy.data.images.remove(back)
+            os.remove(check_png)
+        return sc
+
+
+B = None  # the Backends, chosen in main()
+
+
+def read_exr(path):
+    return B.read_exr(path)
+
+
+def write_png(path, rgb01):
+    B.write_png(path, rgb01)
 
 
 # ---- images -----------------------------------------------------------------------------
-
-def read_exr(path):
-    import OpenImageIO as oiio
-
-    buf = oiio.ImageBuf(path)
-    if buf.has_error:
-        raise RuntimeError("cannot read %s: %s" % (path, buf.geterror()))
-    px = buf.get_pixels(oiio.FLOAT)
-    if px is None or px.ndim != 3 or px.shape[2] < 3:
-        raise RuntimeError("%s: expected an RGB image, got %s" % (path, None if px is None else px.shape))
-    return np.asarray(px[:, :, :3], dtype=np.float64)
-
 
 def luminance(img):
     return 0.2126 * img[..., 0] + 0.7152 * img[..., 1] + 0.0722 * img[..., 2]
@@ -65,6 +236,11 @@ def luminance(img):
 def srgb(x):
     x = np.clip(x, 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def srgb_to_linear(v):
+    v = np.clip(v, 0.0, 1.0)
+    return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
 
 
 def exposure_for(img):
@@ -76,18 +252,6 @@ def exposure_for(img):
 
 def tone_map(img, k):
     return srgb(img * k)
-
-
-def write_png(path, rgb01):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    tmp = path + ".tmp.png"
-    plt.imsave(tmp, np.clip(rgb01, 0, 1))
-    os.replace(tmp, path)
-
 
 # ---- statistics -------------------------------------------------------------------------
 
@@ -158,14 +322,50 @@ def other_render(d, path, info, mode, ref):
     return r, b
 
 
-def heat_map(path_png, e, title):
-    import matplotlib
+# ---- figures ------------------------------------------------------------------------------
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+# A blue–white–red ramp (the ends and midpoints of matplotlib's RdBu_r) for the numpy heat map.
+RAMP = np.array([[0.020, 0.188, 0.380], [0.263, 0.576, 0.765], [0.969, 0.969, 0.969],
+                 [0.839, 0.376, 0.302], [0.404, 0.000, 0.122]])
 
+
+def error_limit(e):
+    """The heat map's colour scale: ±(99th percentile of |mean over R, G, B of e|), ≥ 0.5 %."""
+    return max(0.005, float(np.percentile(np.abs(e.mean(axis=2)), 99)))
+
+
+def ramp(t):
+    """t in [−1, 1] → RGB of RAMP, piecewise linear."""
+    x = (np.clip(t, -1.0, 1.0) + 1.0) * 0.5 * (len(RAMP) - 1)
+    i = np.minimum(np.floor(x).astype(int), len(RAMP) - 2)
+    f = (x - i)[..., None]
+    return RAMP[i] * (1.0 - f) + RAMP[i + 1] * f
+
+
+def _scale_for(w):
+    """Integer nearest-neighbour magnification so a panel is at least ≈ 256 px wide."""
+    return max(1, min(32, -(-256 // max(w, 1))))
+
+
+def _enlarge(img, s):
+    return np.repeat(np.repeat(img, s, axis=0), s, axis=1)
+
+
+def heat_map(path_png, e, title, lim):
     y = e.mean(axis=2)
-    lim = max(0.005, float(np.percentile(np.abs(y), 99)))
+    if B.plt is None:
+        # the map, then a gap and a colour bar from −lim (left) through 0 to +lim (right)
+        s = _scale_for(y.shape[1])
+        m = _enlarge(ramp(y / lim), s)
+        h, w = m.shape[:2]
+        pad = max(4, s)
+        bar = np.repeat(ramp(np.linspace(-1.0, 1.0, w))[None], max(8, h // 12), axis=0)
+        out = np.ones((pad + h + pad + bar.shape[0] + pad, w + 2 * pad, 3))
+        out[pad:pad + h, pad:pad + w] = m
+        out[2 * pad + h:2 * pad + h + bar.shape[0], pad:pad + w] = bar
+        write_png(path_png, out)
+        return
+    plt = B.plt
     fig, ax = plt.subplots(figsize=(6, 6 * y.shape[0] / y.shape[1] + 0.8), dpi=110)
     im = ax.imshow(y, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest")
     ax.set_title(title, fontsize=9)
@@ -174,18 +374,22 @@ def heat_map(path_png, e, title):
     cb = fig.colorbar(im, ax=ax, orientation="horizontal", fraction=0.06, pad=0.04)
     cb.set_label("relative error (Blender − native) / native, mean of R, G, B")
     fig.tight_layout()
-    tmp = path_png + ".tmp.png"
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path_png)
+    _save_figure(fig, path_png)
 
 
 def side_by_side(path_png, panels, title):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    if B.plt is None:
+        # the panels left to right, on white
+        h, w = panels[0][1].shape[:2]
+        s = _scale_for(w)
+        pad = max(4, s)
+        out = np.ones((h * s + 2 * pad, len(panels) * (w * s + pad) + pad, 3))
+        for i, (_, img) in enumerate(panels):
+            x = pad + i * (w * s + pad)
+            out[pad:pad + h * s, x:x + w * s] = _enlarge(img[..., :3], s)
+        write_png(path_png, out)
+        return
+    plt = B.plt
     h, w = panels[0][1].shape[:2]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 4.2 * h / w + 0.7), dpi=110)
     for ax, (name, img) in zip(axes, panels):
@@ -195,10 +399,18 @@ def side_by_side(path_png, panels, title):
         ax.set_yticks([])
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
+    _save_figure(fig, path_png)
+
+
+def _save_figure(fig, path_png):
     tmp = path_png + ".tmp.png"
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, path_png)
+    try:
+        fig.savefig(tmp)
+        os.replace(tmp, path_png)
+    finally:
+        B.plt.close(fig)
+        if os.path.exists(tmp):
+            os.remove(tmp)
 
 
 # ---- known differences: numbers ---------------------------------------------------------------
@@ -309,7 +521,7 @@ def analyse(d, job):
                     ref_name, summary.get("native_errors", {}).get(ref_name, "not rendered")))
             ref = natives[ref_name]
             info_path = os.path.join(d, "blender_%s.json" % path)
-            with open(info_path) as f:
+            with open(info_path, encoding="utf-8") as f:
                 info = json.load(f)
             modes = info.get("modes", ["rgb"])
             mode = next((m for m in ("split", "dither") if m in modes), modes[0])
@@ -373,7 +585,8 @@ def analyse(d, job):
             tb, tn = tone_map(b, k), tone_map(ref, k)
             write_png(os.path.join(pngdir, "%s_native.png" % path), tn)
             write_png(os.path.join(pngdir, "%s_blender.png" % path), tb)
-            heat_map(os.path.join(pngdir, "%s_error.png" % path), e, "%s: relative error vs %s" % (path, ref_name))
+            lim = error_limit(e)
+            heat_map(os.path.join(pngdir, "%s_error.png" % path), e, "%s: relative error vs %s" % (path, ref_name), lim)
             panels = [("native (%s)" % ref_name, tn), ("Blender, %d seeds × %d samples" % (
                 info["seeds"], info["samples"]), tb)]
             if path == "analytic_volume_ms" and "native_matched" in natives:
@@ -382,11 +595,15 @@ def analyse(d, job):
             elif path != "sky_texture" and "native_physical" in natives:
                 panels.append(("native physical (scene phases, spectral)", tone_map(natives["native_physical"], k)))
             side_by_side(os.path.join(pngdir, "%s_side_by_side.png" % path), panels, TITLES[path])
-            images[path] = True
+            images[path] = {"panels": [name for name, _ in panels], "error_limit": lim}
         except Exception as ex:  # noqa: BLE001
             entry.clear()
             entry["error"] = "%s: %s" % (type(ex).__name__, ex)
             traceback.print_exc()
+            for kind in FIGURES:  # no figure of a path that failed
+                f = os.path.join(pngdir, "%s_%s.png" % (path, kind))
+                if os.path.exists(f):
+                    os.remove(f)
     summary["closure_cutoff"] = closure_cutoff_loss(job)
     summary["voxelisation_estimates"] = voxel_estimates(job)
     return summary, images
@@ -467,9 +684,15 @@ def markdown(job, summary, images):
             add("")
             continue
         if path in images:
+            fig = images[path]
             add("![%s side by side](png/%s_side_by_side.png)" % (path, path))
             add("")
+            add("Left to right: %s." % "; ".join(fig["panels"]))
+            add("")
             add("![%s relative error](png/%s_error.png)" % (path, path))
+            add("")
+            add("Relative error (Blender − native)/native against %s, mean of R, G, B: blue −%s, white 0, red +%s "
+                "(and beyond)." % (e["reference"], fmt_pct(fig["error_limit"]), fmt_pct(fig["error_limit"])))
             add("")
         add("| channel | mean rel. err. | 95th pct | max | signed mean | MC noise |")
         add("|---|---|---|---|---|---|")
@@ -506,6 +729,10 @@ def markdown(job, summary, images):
         "(a white Lambertian plane facing a Sun of strength 1 renders 1/π). Lengths: 1 Blender unit = 1 km, "
         "so coefficients are per km." % (*s.get("irradiance_rgb", [0, 0, 0]), s.get("strength", 0),
                                           ", ".join("%.4f" % c for c in s.get("color", []))))
+    add("")
+    add("## This report")
+    add("")
+    add(B.describe())
     add("")
     return "\n".join(L) + "\n"
 
@@ -649,19 +876,47 @@ def known_differences(job, summary, path):
     return out
 
 
-def main(argv):
+def write_outputs(d, contents):
+    """Every file of `contents` ({name: text}) to a temporary file first, then all renamed into
+    place: a failure leaves none of them half-written (and no temporary file)."""
+    tmps = {}
+    try:
+        for name, content in contents.items():
+            tmps[name] = os.path.join(d, "." + name + ".tmp")
+            with open(tmps[name], "w", encoding="utf-8") as f:
+                f.write(content)
+        for name, tmp in tmps.items():
+            os.replace(tmp, os.path.join(d, name))
+    finally:
+        for tmp in tmps.values():
+            if os.path.exists(tmp):
+                os.remove(tmp)
+
+
+def arguments(argv):
+    """DIR, from `report.py DIR` or, inside Blender, from what follows `--`."""
+    if "--" in argv:
+        argv = argv[argv.index("--") + 1:]
+    elif B.bpy is not None:
+        argv = []  # Blender's own arguments are not ours
+    else:
+        argv = argv[1:]
     if len(argv) != 1:
-        raise SystemExit("usage: report.py DIR")
-    d = os.path.abspath(argv[0])
-    with open(os.path.join(d, "job.json")) as f:
+        raise SystemExit("usage: report.py DIR  (in Blender: blender -b --factory-startup --python-exit-code 1 "
+                         "--python report.py -- DIR)")
+    return os.path.abspath(argv[0])
+
+
+def main(argv):
+    global B
+    B = Backends()
+    d = arguments(argv)
+    print("report: " + B.describe())
+    with open(os.path.join(d, "job.json"), encoding="utf-8") as f:
         job = json.load(f)
     summary, images = analyse(d, job)
     text = markdown(job, summary, images)
-    for name, content in (("summary.json", json.dumps(summary, indent=2) + "\n"), ("report.md", text)):
-        tmp = os.path.join(d, "." + name + ".tmp")
-        with open(tmp, "w") as f:
-            f.write(content)
-        os.replace(tmp, os.path.join(d, name))
+    write_outputs(d, {"summary.json": json.dumps(summary, indent=2) + "\n", "report.md": text})
     for path, e in summary["paths"].items():
         if "error" in e:
             print("%-16s ERROR %s" % (path, str(e["error"]).splitlines()[0]))
@@ -672,4 +927,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main(sys.argv)

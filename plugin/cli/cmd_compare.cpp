@@ -22,7 +22,10 @@
 //      atmosphere.vdb (export_vdb of a box around what the camera sees, km);
 //   3. job.json, then one Blender process per path running compare/blender_render.py
 //      (K seeds each), its log in blender_<path>.log;
-//   4. compare/report.py (Debian's python3): report.md, PNGs and summary.json.
+//   4. compare/report.py: report.md, PNGs and summary.json, run by default in the same Blender
+//      (`blender -b --factory-startup --python report.py -- DIR`: its bundled Python with numpy,
+//      images through bpy), or with --python EXE (numpy and OpenImageIO; matplotlib optional).
+//      Stale report.md / summary.json are removed first, so a failed report leaves none.
 // A path that cannot run (an export refused, Blender failing, a missing script) is recorded
 // with an "error" in job.json and summary.json; the other paths and the report go on.
 #include <signal.h>
@@ -53,6 +56,7 @@
 
 #include "airmass/image_io.hpp"
 #include "airmass/progress.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/render.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
@@ -120,7 +124,7 @@ struct CompareOptions {
     double step_km = 1.0;
     int max_steps = 1024;
     std::string blender = "blender";
-    std::string python = "/usr/bin/python3";
+    std::string python;  // empty: the report runs in `blender`
     std::string scripts, addon;
     int threads = 0;
     double timeout_s = 3600.0;
@@ -560,13 +564,25 @@ void run_compare(const CompareOptions& o) {
     if (o.no_report) return;
     const fs::path log = dir / "report.log";
     fs::remove(log, ec);
+    // The outputs of an earlier report describe earlier renders: gone before this one runs, so a
+    // failure leaves no report at all (report.py writes each file atomically).
+    for (const char* f : {"report.md", "summary.json"}) fs::remove(dir / f, ec);
+    const std::string report_py = (scripts / "report.py").string();
+    const bool in_blender = o.python.empty();
+    const std::vector<std::string> report_argv =
+        in_blender ? std::vector<std::string>{o.blender, "-b", "--factory-startup", "--python-exit-code", "1",
+                                              "--python", report_py, "--", dir.string()}
+                   : std::vector<std::string>{o.python, report_py, dir.string()};
+    const std::string runner = in_blender ? "Blender (" + o.blender + ")" : "--python " + o.python;
+    say(o.quiet, "report (" + runner + ") ...");
     bool timed_out = false;
-    const int rc = run_process({o.python, (scripts / "report.py").string(), dir.string()}, log, o.timeout_s, cancel,
-                               timed_out);
+    const int rc = run_process(report_argv, log, o.timeout_s, cancel, timed_out);
     check_cancel();
-    if (rc != 0)
-        throw CliError("compare: the report generator failed (exit status " + std::to_string(rc) + "); see " +
-                       log.string() + ":\n" + tail_of(log, 20));
+    if (rc != 0 || !fs::is_regular_file(dir / "summary.json") || !fs::is_regular_file(dir / "report.md"))
+        throw CliError("compare: the report (compare/report.py in " + runner + ") " +
+                       (timed_out ? "timed out" : rc != 0 ? "failed" : "wrote no report.md / summary.json") +
+                       " (exit status " + std::to_string(rc) + "); the renders are in " + dir.string() +
+                       "; last lines of " + log.string() + ":\n" + tail_of(log, 20));
     if (!o.quiet) std::fprintf(stderr, "%s", tail_of(log, 40).c_str());
     say(o.quiet, "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
 }
@@ -615,9 +631,13 @@ void add_compare_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--step", o->step_km, "Cycles volume step for the analytic volume, km")->capture_default_str();
     cmd->add_option("--max-steps", o->max_steps, "Cycles volume_max_steps")->capture_default_str();
-    cmd->add_option("--blender", o->blender, "Blender executable")->capture_default_str();
-    cmd->add_option("--python", o->python, "Python with numpy, OpenImageIO, matplotlib (the report)")
+    cmd->add_option("--blender", o->blender,
+                    "Blender executable: the renders, and the report (compare/report.py in its own Python, "
+                    "numpy only) unless --python is given")
         ->capture_default_str();
+    cmd->add_option("--python", o->python,
+                    "Run the report with this Python instead of in --blender (needs numpy and OpenImageIO; "
+                    "matplotlib optional) [default: in --blender]");
     cmd->add_option("--scripts", o->scripts, "Folder with blender_render.py and report.py [default: found]");
     cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
     cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();

@@ -30,6 +30,7 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -350,3 +351,215 @@ def test_a_failing_path_is_recorded_not_fatal(airmass_bin, tmp_path):
     assert "error" in summary["paths"]["vdb_volume"]
     assert "error" not in summary["paths"]["sky_texture"]
     assert os.path.isfile(os.path.join(out, "report.md"))
+
+
+# ---- the report without the system Python (docs/compare.md, "The report") ------------------------------
+
+REPORT_PY = os.path.join(REPO, "compare", "report.py")
+BACKEND_LINE = "Made by report.py"  # the one line of report.md that names the backends
+# Official Blender builds bundle numpy but neither matplotlib nor OpenImageIO; Debian's Blender
+# sees the system's, so this makes them unimportable in Blender's Python (sys.modules[name] =
+# None makes `import name` raise ImportError), run before report.py (--python-expr comes first).
+HIDE_MODULES = "import sys; sys.modules.update(dict.fromkeys(('matplotlib', 'OpenImageIO'), None))"
+
+
+def _backend_line(report_md):
+    lines = [ln for ln in report_md.splitlines() if ln.startswith(BACKEND_LINE)]
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+def _same_numbers(a, b, where="summary"):
+    """Where two summary.json values differ beyond float round-off, or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        if set(a) != set(b):
+            return "%s: keys %s" % (where, sorted(set(a) ^ set(b)))
+        return next((d for d in (_same_numbers(a[k], b[k], where + "." + k) for k in a) if d), None)
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return where + ": lengths"
+        return next((d for d in (_same_numbers(x, y, "%s[%d]" % (where, i)) for i, (x, y) in enumerate(zip(a, b)))
+                     if d), None)
+    if isinstance(a, float) or isinstance(b, float):
+        ok = isinstance(a, (int, float)) and isinstance(b, (int, float)) and \
+            abs(a - b) <= 1e-9 * max(abs(a), abs(b)) + 1e-15
+        return None if ok else "%s: %r vs %r" % (where, a, b)
+    return None if a == b else "%s: %r vs %r" % (where, a, b)
+
+
+def blender_version():
+    p = run([shutil.which("blender"), "--version"])
+    return p.stdout.split()[1]  # "Blender 3.4.1 ..." (bpy.app.version_string)
+
+
+def read_png(path):
+    buf = OpenImageIO.ImageBuf(str(path))
+    px = buf.get_pixels(OpenImageIO.UINT8)
+    assert px is not None, buf.geterror()
+    return np.asarray(px, dtype=np.int64)
+
+
+@needs_blender
+def test_report_in_blender_equals_report_in_python(noon, tmp_path):
+    """The report of one comparison folder (the noon run's renders), made three ways: the system
+    Python (OpenImageIO, matplotlib), the same without matplotlib (numpy figures), and Blender's
+    own Python with neither matplotlib nor OpenImageIO importable (bpy's image API, numpy
+    figures, as in official Blender builds). summary.json must agree to float round-off,
+    report.md line for line but for the line naming the backends, the plain images pixel for
+    pixel (colour management: EXR read as data, PNG written through the Standard view)."""
+    src, _ = noon
+    skip = shutil.ignore_patterns("sky.exr", "*.vdb", "*.log", "report.md", "summary.json", "png")
+    runs = {
+        "python": [sys.executable, REPORT_PY, "{dir}"],
+        "python_numpy_figures": [sys.executable, "-c",
+                                 "import runpy, sys; sys.modules['matplotlib'] = None; sys.argv = sys.argv[1:]; "
+                                 "runpy.run_path(sys.argv[0], run_name='__main__')", REPORT_PY, "{dir}"],
+        "blender": [shutil.which("blender"), "-b", "--factory-startup", "--python-exit-code", "1",
+                    "--python-expr", HIDE_MODULES, "--python", REPORT_PY, "--", "{dir}"],
+    }
+    expect = {"python": ("read and written with OpenImageIO", "matplotlib"),
+              "python_numpy_figures": ("read and written with OpenImageIO", "numpy"),
+              "blender": ("read and written with Blender %s" % blender_version(), "numpy")}
+    out = {}
+    for name, cmd in runs.items():
+        d = tmp_path / name
+        shutil.copytree(src, d, ignore=skip)
+        run([str(c).replace("{dir}", str(d)) for c in cmd], timeout=300)
+        text = (d / "report.md").read_text(encoding="utf-8")
+        line = _backend_line(text)
+        images, figures = expect[name]
+        assert images in line and ("image API (bpy)" in line) == (name == "blender"), (name, line)
+        assert ("figures drawn with matplotlib" if figures == "matplotlib" else "figures composed with numpy") in line, \
+            (name, line)
+        with open(d / "summary.json") as f:
+            out[name] = (d, json.load(f), [ln for ln in text.splitlines() if not ln.startswith(BACKEND_LINE)])
+        assert not [f for f in os.listdir(d) if ".tmp" in f] and not [f for f in os.listdir(d / "png") if ".tmp" in f]
+    ref_dir, ref_summary, ref_lines = out["python"]
+    assert set(ref_summary["paths"]) == {"sky_texture", "analytic_volume", "vdb_volume"}
+    for name, (d, summary, lines) in out.items():
+        assert _same_numbers(ref_summary, summary) is None, (name, _same_numbers(ref_summary, summary))
+        assert lines == ref_lines, (name, [(a, b) for a, b in zip(ref_lines, lines) if a != b][:3])
+        assert sorted(os.listdir(d / "png")) == sorted(os.listdir(ref_dir / "png")), name
+        for path in ref_summary["paths"]:
+            for kind in ("native", "blender"):
+                a, b = read_png(ref_dir / "png" / ("%s_%s.png" % (path, kind))), \
+                    read_png(d / "png" / ("%s_%s.png" % (path, kind)))
+                assert a.shape == b.shape == (14, 24, 3), (name, path, kind, a.shape, b.shape)
+                assert np.abs(a - b).max() <= 1, (name, path, kind, np.abs(a - b).max())
+    # The numpy side by side holds the native image enlarged (nearest neighbour) as its first
+    # panel; the numpy error map is blue where Blender is darker and red where brighter.
+    d = out["blender"][0]
+    native = read_png(d / "png" / "sky_texture_native.png")
+    sbs = read_png(d / "png" / "sky_texture_side_by_side.png")
+    s = -(-256 // 24)
+    pad = max(4, s)
+    assert sbs.shape == (14 * s + 2 * pad, 2 * (24 * s + pad) + pad, 3), sbs.shape
+    panel = sbs[pad:pad + 14 * s, pad:pad + 24 * s]
+    assert np.array_equal(panel, np.repeat(np.repeat(native, s, axis=0), s, axis=1))
+    err = read_png(d / "png" / "analytic_volume_error.png")[pad:pad + 14 * s, pad:pad + 24 * s]
+    assert (err[..., 2] - err[..., 0]).max() > 60 and (err[..., 0] - err[..., 2]).max() > 60  # both signs occur
+
+
+def _stand_in(path, text):
+    path.write_text(text)
+    path.chmod(0o755)
+    return path
+
+
+@needs_blender
+def test_compare_needs_no_system_python(airmass_bin, tmp_path):
+    """`airmass compare` with its defaults (no --python) on a machine whose python3 is no use:
+    `python3` and `python` on PATH are stand-ins that fail (and leave a mark), PYTHONPATH holds
+    OpenImageIO and matplotlib that fail to import, and `blender` on PATH is Debian's Blender
+    with matplotlib and OpenImageIO hidden (like an official build: numpy only). The renders
+    and the report run in that Blender; the report says so."""
+    real_blender = shutil.which("blender")
+    bin_dir, stubs = tmp_path / "bin", tmp_path / "site"
+    bin_dir.mkdir()
+    mark = tmp_path / "python-was-run"
+    for name in ("python3", "python"):
+        _stand_in(bin_dir / name, "#!/bin/sh\necho \"$0 $*\" >> '%s'\necho 'stand-in python: no numpy, no "
+                                  "OpenImageIO' >&2\nexit 1\n" % mark)
+    _stand_in(bin_dir / "blender", """#!/bin/bash
+# Debian's Blender with matplotlib and OpenImageIO unimportable in its Python
+args=()
+for a in "$@"; do
+  if [ "$a" = "--python" ]; then args+=(--python-expr "%s"); fi
+  args+=("$a")
+done
+exec '%s' "${args[@]}"
+""" % (HIDE_MODULES, real_blender))
+    for mod in ("OpenImageIO", "matplotlib"):
+        (stubs / mod).mkdir(parents=True)
+        (stubs / mod / "__init__.py").write_text("raise ImportError('stand-in: %s is not installed')\n" % mod)
+    env = dict(os.environ, PATH=str(bin_dir) + os.pathsep + os.environ.get("PATH", ""), PYTHONPATH=str(stubs))
+    # the stand-ins work: the system Python as found on PATH, and /usr/bin/python3 with this PYTHONPATH
+    assert subprocess.run(["python3", "-c", "import numpy"], env=env, capture_output=True).returncode != 0
+    assert mark.exists()
+    mark.unlink()
+    for mod in ("OpenImageIO", "matplotlib"):
+        assert subprocess.run([sys.executable, "-c", "import " + mod], env=env, capture_output=True).returncode != 0
+    out = tmp_path / "out"
+    p = subprocess.run([str(airmass_bin), "compare", os.path.join(EXAMPLES, "ground-noon.toml"), "-o", str(out), "-q",
+                        "--threads", "2", "--paths", "sky_texture", "--width", "16", "--sky-samples", "4"],
+                       env=env, capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, (p.stdout, p.stderr, (out / "report.log").read_text() if (out / "report.log").exists()
+                               else "no report.log")
+    assert not mark.exists(), mark.read_text()
+    with open(out / "summary.json") as f:
+        e = json.load(f)["paths"]["sky_texture"]
+    assert "error" not in e, e["error"]
+    for k in SUMMARY_KEYS:
+        assert math.isfinite(e[k]), k
+    line = _backend_line((out / "report.md").read_text(encoding="utf-8"))
+    assert "'s image API (bpy)" in line and "figures composed with numpy" in line, line
+    assert "Blender" in (out / "report.log").read_text()
+    for kind in ("side_by_side", "error", "native", "blender"):
+        assert (out / "png" / ("sky_texture_%s.png" % kind)).is_file(), kind
+
+
+def _cheap_compare(airmass_bin, out, *args):
+    """A comparison with no Blender render (the orbit's VDB is refused): native images and the
+    report only, ≈ 3 s."""
+    return run([airmass_bin, "compare", os.path.join(EXAMPLES, "orbit-400km.toml"), "-o", out, "-q", "--width", 16,
+                "--threads", "2", "--paths", "vdb_volume"] + list(args), check=False, timeout=300)
+
+
+@needs_blender
+def test_report_failure_is_reported_and_leaves_no_report(airmass_bin, tmp_path):
+    """A report that fails — report.py raising inside Blender (the default), or a --python that
+    cannot run it — fails the command with the report log's last lines in the message, and leaves
+    neither report.md nor summary.json (not even an earlier run's) nor a temporary file."""
+    scripts = tmp_path / "scripts"
+    shutil.copytree(os.path.join(REPO, "compare"), scripts, ignore=shutil.ignore_patterns("__pycache__"))
+    text = (scripts / "report.py").read_text(encoding="utf-8")
+    hook = "    summary, images = analyse(d, job)\n"
+    assert hook in text
+    (scripts / "report.py").write_text(text.replace(hook, hook + "    raise RuntimeError('injected report failure')\n"),
+                                       encoding="utf-8")
+    python = _stand_in(tmp_path / "python-standin", "#!/bin/sh\necho 'stand-in python: no module named numpy' >&2\n"
+                                                    "exit 3\n")
+    for name, args, words in (
+            ("blender", ["--scripts", scripts], ["compare/report.py in Blender", "exit status 1",
+                                                  "RuntimeError: injected report failure"]),
+            ("python", ["--python", python], ["compare/report.py in --python " + str(python), "exit status 3",
+                                               "stand-in python: no module named numpy"])):
+        out = tmp_path / name
+        out.mkdir()
+        for stale in ("report.md", "summary.json"):
+            (out / stale).write_text("from an earlier run\n")
+        p = _cheap_compare(airmass_bin, out, *args)
+        assert p.returncode != 0, (name, p.stderr)
+        for w in words:
+            assert w in p.stderr, (name, w, p.stderr)
+        assert "last lines of " + str(out / "report.log") in p.stderr, (name, p.stderr)
+        left = sorted(os.listdir(out))
+        assert "report.md" not in left and "summary.json" not in left, (name, left)
+        assert not [f for f in left if ".tmp" in f], (name, left)
+    # and the same comparison with the real report.py succeeds in Blender
+    out = tmp_path / "ok"
+    p = _cheap_compare(airmass_bin, out)
+    assert p.returncode == 0, p.stderr
+    with open(out / "summary.json") as f:
+        assert "error" in json.load(f)["paths"]["vdb_volume"]
+    assert "'s image API (bpy)" in _backend_line((out / "report.md").read_text(encoding="utf-8"))
