@@ -163,7 +163,7 @@ const char* airmass_status_name(int32_t status) {
     }
 }
 
-int32_t airmass_has_vdb(void) { return AIRMASS_C_HAVE_VDB ? 1 : 0; }
+int32_t airmass_has_vdb(void) { return 1; }  // the volume functions are always built (airmass_volume)
 
 void airmass_string_free(char* s) { std::free(s); }
 

@@ -32,9 +32,7 @@
 #include "airmass/scene.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
-#if AIRMASS_C_HAVE_VDB
 #include "airmass/vdb_export.hpp"
-#endif
 
 
 struct airmass_cancel_token {
@@ -78,7 +76,6 @@ int32_t guarded(char* message, std::size_t message_size, Body&& body) noexcept {
     } catch (const airmass::SkyError& e) {
         write_message(message, message_size, e.what());
         return AIRMASS_SETTINGS_ERROR;
-#if AIRMASS_C_HAVE_VDB
     } catch (const airmass::VdbError& e) {
         // vdb_export reports bad options, limits and unwritable outputs with one type; an
         // output problem names the path and says "write"/"directory".
@@ -88,7 +85,6 @@ int32_t guarded(char* message, std::size_t message_size, Body&& body) noexcept {
                          what.find("create") != std::string::npos || what.find("rename") != std::string::npos);
         write_message(message, message_size, what);
         return io ? AIRMASS_IO_ERROR : AIRMASS_SETTINGS_ERROR;
-#endif
     } catch (const std::filesystem::filesystem_error& e) {
         write_message(message, message_size, e.what());
         return AIRMASS_IO_ERROR;
