@@ -69,7 +69,7 @@ SkySettings small(int w = 64, int h = 32) {
     s.view_samples = 8;
     // The checks here compare against single-scattering references (the evaluator, the
     // transmittance, per-pixel vs grid, Blender's conventions); multiple scattering in the
-    // sky is tested in test_ms_wiring.cpp.
+    // sky is tested in test_evaluator.cpp.
     s.multiple_scattering = false;
     return s;
 }

@@ -5,15 +5,14 @@
 // buffer. Long calls run on a worker thread while the calling thread reports progress,
 // so a host's callback always runs on the thread that called us (Python's GIL and
 // Blender's main-thread rules both need that).
+#include "airmass/evaluator.hpp"
+#include "airmass/version.hpp"
 #include "airmass/airmass_c.h"
 
 #include "capi_internal.hpp"
 
 #include "airmass/simd.hpp"
 
-#ifndef AIRMASS_VERSION_STRING
-#define AIRMASS_VERSION_STRING "unknown"
-#endif
 
 namespace airmass::capi {
 
@@ -147,7 +146,7 @@ extern "C" {
 
 int32_t airmass_abi_version(void) { return AIRMASS_C_ABI_VERSION; }
 
-const char* airmass_version_string(void) { return AIRMASS_VERSION_STRING; }
+const char* airmass_version_string(void) { return airmass::version_string(); }
 
 const char* airmass_status_name(int32_t status) {
     switch (status) {
@@ -180,7 +179,7 @@ int32_t airmass_build_info(char** out, char* message, size_t message_size) {
         const char* platform = "linux-x64";
 #endif
         nlohmann::ordered_json j;
-        j["version"] = AIRMASS_VERSION_STRING;
+        j["version"] = airmass::version_string();
         j["abi"] = AIRMASS_C_ABI_VERSION;
         j["platform"] = platform;
         j["simd"] = std::string(airmass::simd_target_name(airmass::simd_target()));
@@ -327,25 +326,16 @@ int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char
         airmass::EvalSettings settings;
         settings.chapman = chapman_from(chapman, settings.chapman, "chapman");
         const std::vector<double> wavelengths = airmass::basis_wavelengths_nm(scene.basis);
-        const airmass::Atmosphere atmosphere = airmass::compile_atmosphere(scene, wavelengths, settings);
+        const airmass::Evaluator evaluator(airmass::compile_atmosphere(scene, wavelengths, settings));
 
-        // Direct sunlight at the observer: E(λ)·T(λ) with T along the ray toward the sun
-        // (0 when the planet is in the way), mapped to RGB exactly as the sky's sun disc is.
+        // Direct sunlight at the observer: E(λ)·T(λ) along the ray toward the sun (0 when the
+        // planet is in the way; the evaluator's one sun-ray computation), mapped to RGB
+        // exactly as the sky's sun disc is.
         const glm::dvec3 sun = airmass::sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
-        const double r0 = scene.planet.radius_m + scene.observer.altitude_m;
-        const auto ray = airmass::PlanetRay<double>::from_vectors(scene.planet.radius_m, airmass::Vec3<double>(0, 0, r0),
-                                                                  airmass::Vec3<double>(sun.x, sun.y, sun.z));
-        std::vector<double> transmittance(wavelengths.size(), 1.0);
-        const bool blocked = airmass::hits_ground(ray);
-        if (blocked)
-            std::fill(transmittance.begin(), transmittance.end(), 0.0);
-        else
-            airmass::transmittance(atmosphere, ray, 0.0, std::numeric_limits<double>::infinity(), transmittance);
-        std::vector<double> top(wavelengths.size()), bottom(wavelengths.size());
-        for (std::size_t w = 0; w < wavelengths.size(); ++w) {
-            top[w] = atmosphere.sun_irradiance[w];
-            bottom[w] = top[w] * transmittance[w];
-        }
+        std::vector<double> bottom(wavelengths.size());
+        const bool blocked = !evaluator.sun_light(scene.observer.altitude_m,
+                                                  airmass::ZenithAngle<double>::from_cos(sun.z), bottom);
+        const std::vector<double>& top = evaluator.atmosphere().sun_irradiance;
         const airmass::SpectrumToRgb to_rgb = airmass::spectrum_to_rgb(scene.basis);
         const airmass::Vec3d rgb = to_rgb.apply(bottom);
         const airmass::Vec3d rgb_top = to_rgb.apply(top);

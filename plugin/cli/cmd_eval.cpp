@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "airmass/evaluator.hpp"
 #include "airmass/atmosphere.hpp"
 #include "airmass/geometry.hpp"
 #include "airmass/multiple_scattering.hpp"
@@ -137,24 +138,23 @@ void add_eval_command(CLI::App& app) {
         std::vector<double> T(n), R(n), M(n), L(n), MR(n, 0.0), MM(n, 0.0), MT(n, 0.0);
         std::optional<tbb::global_control> limit;
         if (opt->threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, opt->threads);
-        // The tables, once for all rows (they hold light per unit irradiance: independent of
-        // --solar-irradiance, which multiple_scattering_radiance applies per ray).
-        std::optional<MultipleScattering> ms;
-        if (!opt->no_multiple && !rows.empty()) {
-            ms = precompute_multiple_scattering(atm, ms_settings);
-        }
+        // The evaluator: the tables once for all rows (they hold light per unit irradiance:
+        // independent of --solar-irradiance, which is applied per ray).
+        const Evaluator evaluator = make_evaluator(
+            std::move(atm), {!opt->no_multiple && !rows.empty(), ms_settings, ms_samples}, opt->threads);
         const auto evaluate = [&](std::size_t k) {
             const auto& v = rows[k].values;
             const ViewRay ray{v[0], direction_from_zenith_azimuth_deg<double>(v[1], 0.0),
                               direction_from_zenith_azimuth_deg<double>(v[2], v[3])};
             const auto part = [&](std::vector<double>& x) { return std::span(x).subspan(k * nw, nw); };
             const RadianceOut out{part(T), part(R), part(M), part(L)};
-            if (opt->reference) single_scattering_reference(scene, atm, ray, out);
-            else single_scattering(atm, ray, out);
-            if (ms) {
-                multiple_scattering_radiance(atm, *ms, ray, {part(MR), part(MM), part(MT)}, ms_samples);
-                for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += MT[k * nw + w];
-            }
+            const MsRadianceOut multiple{part(MR), part(MM), part(MT)};
+            if (!opt->reference) return evaluator.radiance(ray, out, &multiple);
+            // The brute-force reference of single scattering, plus the same tables' part.
+            single_scattering_reference(scene, evaluator.atmosphere(), ray, out);
+            if (!evaluator.tables()) return;
+            multiple_scattering_radiance(evaluator.atmosphere(), *evaluator.tables(), ray, multiple, ms_samples);
+            for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += MT[k * nw + w];
         };
         tbb::parallel_for(std::size_t(0), rows.size(), evaluate);
 

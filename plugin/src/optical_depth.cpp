@@ -204,6 +204,56 @@ void transmittance_between(const Atmosphere& atm, Vec3<double> from_m, Vec3<doub
     transmittance(atm, PlanetRay<double>::from_vectors(atm.planet_radius_m, from_m, to_m - from_m), 0.0, length, out);
 }
 
+bool sun_masses(const Atmosphere& atm, double h, ZenithAngle<double> chi, std::span<double> mass) {
+    const double R = atm.planet_radius_m, top = atm.top_altitude_m;
+    const PlanetRay<double> sun_ray{R, h, chi};
+    if (in_planet_shadow(sun_ray)) return false;
+    if (!(h < top)) {  // from above the top (a camera or lamp in space): the closed forms clip at the top
+        for (std::size_t i = 0; i < atm.constituents.size(); ++i)
+            mass[i] = profile_segment_mass(atm.constituents[i].profile, atm.settings.chapman, sun_ray, top, 0.0,
+                                           kInf<double>);
+        return true;
+    }
+    const double r = R + h, mu = chi.cos_chi;
+    ZenithAngle<double> exit{1.0, 0.0};
+    bool have_exit = false;
+    for (std::size_t i = 0; i < atm.constituents.size(); ++i) {
+        const auto& p = atm.constituents[i].profile;
+        if (p.kind != CompiledProfile::Kind::exponential) {
+            mass[i] = profile_segment_mass(p, atm.settings.chapman, sun_ray, top, 0.0, kInf<double>);
+            continue;
+        }
+        double m = exponential_ray_mass(atm.settings.chapman, R, p.scale_height_m, p.reference_altitude_m, h, chi);
+        if (p.truncate_at_top) {
+            if (!have_exit) {  // s at the exit = √D of the top sphere (geometry.hpp)
+                const double s0 = r * mu;
+                const double D = (top - h) * (2.0 * R + top + h) + s0 * s0;
+                const double r_top = R + top;
+                exit = {std::min(std::sqrt(std::max(D, 0.0)) / r_top, 1.0), std::min(r * chi.sin_chi / r_top, 1.0)};
+                have_exit = true;
+            }
+            m -= exponential_ray_mass(atm.settings.chapman, R, p.scale_height_m, p.reference_altitude_m, top, exit);
+        }
+        mass[i] = std::max(m, 0.0);
+    }
+    return true;
+}
+
+bool sun_transmittance(const Atmosphere& atm, double h, ZenithAngle<double> chi, std::span<double> out) {
+    const std::size_t nc = atm.constituents.size();
+    double mass[kMaxConstituents];
+    if (!sun_masses(atm, h, chi, std::span<double>(mass, nc))) {
+        std::fill(out.begin(), out.end(), 0.0);
+        return false;
+    }
+    for (std::size_t w = 0; w < atm.wavelength_count(); ++w) {
+        double tau = 0.0;
+        for (std::size_t i = 0; i < nc; ++i) tau += atm.extinction_matrix[w * nc + i] * mass[i];
+        out[w] = std::exp(-tau);
+    }
+    return true;
+}
+
 double profile_segment_mass_reference(const DensityProfile& profile, const PlanetRay<double>& ray,
                                       double top_altitude_m, double t0, double t1, double rel_tol) {
     // Independent of the geometry helpers: r(t)² = r0² + 2 r0 mu t + t² in long double.

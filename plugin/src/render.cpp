@@ -20,7 +20,10 @@
 #include "airmass/parallel.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/scene_io.hpp"
+#include "airmass/evaluator.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/sky.hpp"
+#include "airmass/version.hpp"
 
 #include "message_format.hpp"
 
@@ -161,7 +164,7 @@ struct BoxContext {
         const glm::dvec3 q = x - centre;
         const double mu = std::clamp(glm::dot(q, sun) / glm::length(q), -1.0, 1.0);
         const PlanetRay<double> ray{atm.planet_radius_m, std::max(h, 0.0), ZenithAngle<double>::from_cos(mu)};
-        if (hits_ground(ray)) return false;
+        if (in_planet_shadow(ray)) return false;  // the shadow test of every sun ray (optical_depth.hpp)
         const Interval in = intersect_box(box, x, sun);
         const double a = std::max(in.t0, 0.0);
         if (in.empty() || !(in.t1 > a)) {
@@ -177,7 +180,7 @@ struct BoxContext {
         const double mu = std::clamp(glm::dot(q, sun) / glm::length(q), -1.0, 1.0);
         const PlanetRay<double> ray{atm.planet_radius_m, std::max(view.altitude_at(t), 0.0),
                                     ZenithAngle<double>::from_cos(mu)};
-        return !hits_ground(ray);
+        return !in_planet_shadow(ray);
     }
 
     // Largest extinction over wavelengths at altitude h (m⁻¹).
@@ -388,13 +391,13 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
     eval.ground = settings.ground;
     std::vector<double> wavelengths = to_rgb.wavelengths_nm;
     // Wavelengths in any order (e.g. 680, 550, 440 nm for R, G, B): channel c is wavelength c.
-    Atmosphere atm = compile_atmosphere(scene, wavelengths, eval);
+    Atmosphere compiled = compile_atmosphere(scene, wavelengths, eval);
     if (settings.color == ColorModel::renderer_rgb) {
         const std::array<double, 3> e = sun_irradiance_rgb(scene);
-        for (int c = 0; c < 3; ++c) atm.sun_irradiance[c] = e[c];
+        for (int c = 0; c < 3; ++c) compiled.sun_irradiance[c] = e[c];
     }
-    const std::size_t nw = atm.wavelength_count();
-    const double R = atm.planet_radius_m;
+    const std::size_t nw = compiled.wavelength_count();
+    const double R = compiled.planet_radius_m;
 
     const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
     if (!(frame.altitude_m >= 0.0))
@@ -405,13 +408,12 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
     const glm::dvec3 sun_obs = frame.to_observer(sun);
     const glm::dvec3 up = glm::normalize(cam.pose.position_m - glm::dvec3(0, 0, -R));
 
-    std::optional<MultipleScattering> ms;
-    if (settings.multiple_scattering) {
-        MsSettings m = settings.multiple;
-        if (!m.cancel) m.cancel = hooks.cancel;
-        if (!m.threads) m.threads = settings.threads;
-        ms = precompute_multiple_scattering(atm, m);
-    }
+    // The evaluator (with the tables when multiple scattering is on) answers every ray of
+    // the whole shell; a medium cut to a box is integrated by box_radiance below.
+    const Evaluator evaluator = make_evaluator(
+        std::move(compiled), {settings.multiple_scattering, settings.multiple, settings.multiple_samples},
+        settings.threads, RenderHooks{hooks.cancel, {}});
+    const Atmosphere& atm = evaluator.atmosphere();
     std::optional<BoxContext> box;
     if (settings.medium_box) box.emplace(atm, *settings.medium_box, sun);
 
@@ -428,7 +430,6 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
             std::vector<std::size_t> first(W + 1);
             std::vector<Vec3<double>> dirs;
             std::vector<double> T, Lr, Lm, L;
-            std::vector<double> m1(nw), m2(nw), m3(nw);
             for (int y = int(row_begin); y < int(row_end); ++y) {
                 if (cancelled()) return;
                 // The row's integration nodes: one per pixel centre, or the box filter's.
@@ -452,15 +453,7 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
                                      std::span<double>(L.data() + k * nw, nw));
                     }
                 } else {
-                    single_scattering_batch(atm, frame.altitude_m, Vec3<double>(sun_obs), dirs,
-                                            {T, Lr, Lm, L});
-                    if (ms) {
-                        for (std::size_t k = 0; k < n; ++k) {
-                            const ViewRay vr{frame.altitude_m, dirs[k], Vec3<double>(sun_obs)};
-                            multiple_scattering_radiance(atm, *ms, vr, {m1, m2, m3}, settings.multiple_samples);
-                            for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += m3[w];
-                        }
-                    }
+                    evaluator.radiance(frame.altitude_m, Vec3<double>(sun_obs), dirs, {T, Lr, Lm, L});
                 }
                 float* row = image.row(y);
                 for (int x = 0; x < W; ++x) {
@@ -510,11 +503,8 @@ ImageMetadata render_metadata(const Scene& scene, const RenderSettings& settings
     j["units"] = settings.color == ColorModel::spectral
                      ? "linear Rec.709 of spectral radiance W m^-2 sr^-1 nm^-1: XYZ = sum L CMF dlambda (no 683 lm/W)"
                      : "radiance per RGB channel for the sun lamp's RGB irradiance (renderer RGB model)";
-    // The library version as the sky's metadata states it (one place defines it).
-    std::string version = "unknown";
-    for (const auto& [key, value] : sky_metadata(scene, SkySettings{}))
-        if (key == "airmass:version") version = value;
-    return {{"airmass:scene", scene_to_json(scene)}, {"airmass:render", j.dump()}, {"airmass:version", version}};
+    return {{"airmass:scene", scene_to_json(scene)}, {"airmass:render", j.dump()},
+            {"airmass:version", version_string()}};
 }
 
 }  // namespace airmass

@@ -18,15 +18,14 @@
 
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
+#include "airmass/evaluator.hpp"
 #include "airmass/geometry.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/version.hpp"
 
-#ifndef AIRMASS_VERSION_STRING
-#define AIRMASS_VERSION_STRING "unknown"
-#endif
 
 namespace airmass {
 
@@ -127,99 +126,68 @@ void validate(const SkySettings& s) {
 
 namespace {
 
-// Everything a render needs, prepared once.
-struct SkyContext {
+// What a sky needs before its evaluator: the compiled atmosphere at the image's
+// wavelengths, the map to RGB, the sun and the observer.
+struct SkyInputs {
     Atmosphere atmosphere;
     SpectrumToRgb to_rgb;  // restricted to the wavelengths the atmosphere evaluates
     glm::dvec3 sun;
     double altitude_m;
-    // Multiple scattering: the tables in use (the caller's or `own`), null when off.
-    const MultipleScattering* ms = nullptr;
-    MultipleScattering own;
-    int ms_samples = 32;
 };
 
-// The tables for ctx.atmosphere, with the render's threads, cancel flag and progress
-// (`units` work units of `total` reported through the hooks as the precompute advances).
-MultipleScattering precompute_sky_tables(const Atmosphere& atmosphere, const SkySettings& settings,
-                                         const RenderHooks& hooks, std::size_t units, std::size_t total) {
-    MsSettings m = settings.multiple;
-    if (m.threads == 0) m.threads = settings.threads;
-    if (!m.cancel) m.cancel = hooks.cancel;
-    // Called from the calling thread only (multiple_scattering.hpp), so plain state is enough.
-    std::size_t reported = 0;
-    const auto user = settings.multiple.progress;
-    m.progress = [&, user](double fraction, int order) {
-        if (user) user(fraction, order);
-        const auto now = static_cast<std::size_t>(std::clamp(fraction, 0.0, 1.0) * double(units));
-        if (now > reported && hooks.work_done) hooks.work_done(now - reported, total);
-        reported = std::max(reported, now);
-    };
-    MultipleScattering ms = precompute_multiple_scattering(atmosphere, m);
-    if (units > reported && hooks.work_done) hooks.work_done(units - reported, total);
-    return ms;
+// Everything a render needs, prepared once: the evaluator (with the tables when multiple
+// scattering is on) and the rest of SkyInputs.
+struct SkyContext {
+    Evaluator evaluator;
+    SpectrumToRgb to_rgb;
+    glm::dvec3 sun;
+    double altitude_m;
+    const Atmosphere& atmosphere() const { return evaluator.atmosphere(); }
+};
+
+MultipleScatteringOptions ms_options(const SkySettings& s) {
+    return {s.multiple_scattering, s.multiple, s.multiple_samples};
 }
 
-// Tables given by a caller must belong to this atmosphere (same wavelengths, constituents).
-void check_tables(const Atmosphere& atm, const MultipleScattering& ms) {
-    if (ms.empty() || ms.wavelength_count != atm.wavelength_count() || ms.slot.size() != atm.constituents.size())
-        throw SkyError("multiple-scattering tables: computed for " + std::to_string(ms.wavelength_count) +
-                       " wavelengths and " + std::to_string(ms.slot.size()) + " constituents, the sky needs " +
-                       std::to_string(atm.wavelength_count()) + " and " + std::to_string(atm.constituents.size()) +
-                       " (use sky_multiple_scattering with the same scene and settings)");
-}
-
-SkyContext prepare(const Scene& scene, const SkySettings& settings) {
+SkyInputs prepare(const Scene& scene, const SkySettings& settings) {
     validate(scene);
     validate(settings);
-    SkyContext ctx;
+    SkyInputs in;
     SpectrumToRgb full = spectrum_to_rgb(scene.basis);
     if (full.size() == 0) throw SkyError("spectrum: the basis has no wavelengths");
     // A scene pays only for what it uses: wavelengths whose colour weights are all zero
     // (outside the CMF table) cannot change the image, so they are not evaluated.
     for (std::size_t i = 0; i < full.size(); ++i) {
         if (full.matrix[0][i] == 0.0 && full.matrix[1][i] == 0.0 && full.matrix[2][i] == 0.0) continue;
-        ctx.to_rgb.wavelengths_nm.push_back(full.wavelengths_nm[i]);
-        for (int c = 0; c < 3; ++c) ctx.to_rgb.matrix[c].push_back(full.matrix[c][i]);
+        in.to_rgb.wavelengths_nm.push_back(full.wavelengths_nm[i]);
+        for (int c = 0; c < 3; ++c) in.to_rgb.matrix[c].push_back(full.matrix[c][i]);
     }
-    if (ctx.to_rgb.size() == 0) throw SkyError("spectrum: no wavelength of the basis lies inside 360-830 nm");
+    if (in.to_rgb.size() == 0) throw SkyError("spectrum: no wavelength of the basis lies inside 360-830 nm");
     EvalSettings eval;
     eval.chapman = settings.chapman;
     eval.view_samples = settings.view_samples;
     eval.sun_disc = false;  // added below, box-filtered into pixels
     eval.ground = true;
-    ctx.atmosphere = compile_atmosphere(scene, ctx.to_rgb.wavelengths_nm, eval);
-    ctx.sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
-    ctx.altitude_m = scene.observer.altitude_m;
-    ctx.ms_samples = settings.multiple_samples;
-    return ctx;
+    in.atmosphere = compile_atmosphere(scene, in.to_rgb.wavelengths_nm, eval);
+    in.sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+    in.altitude_m = scene.observer.altitude_m;
+    return in;
 }
 
-// Points ctx.ms at the caller's tables or at tables computed now (call once ctx has its
-// final address: ctx.ms may point into ctx.own).
-void attach_tables(SkyContext& ctx, const SkySettings& settings, const RenderHooks& hooks,
-                   const MultipleScattering* tables, std::size_t units, std::size_t total) {
-    if (!settings.multiple_scattering) return;
-    if (tables) {
-        check_tables(ctx.atmosphere, *tables);
-        ctx.ms = tables;
-        return;
+// The context of a sky: the evaluator over the caller's tables (checked: SkyError names
+// them) or over tables computed now, reported as `units` of `total` through the hooks.
+SkyContext make_context(SkyInputs in, const SkySettings& settings, const RenderHooks& hooks,
+                        const MultipleScattering* tables, std::size_t units, std::size_t total) {
+    std::shared_ptr<const MultipleScattering> shared;
+    if (tables && settings.multiple_scattering) shared = {std::shared_ptr<void>(), tables};  // not owned
+    try {
+        return {make_evaluator(std::move(in.atmosphere), ms_options(settings), settings.threads, hooks, shared, units,
+                               total),
+                std::move(in.to_rgb), in.sun, in.altitude_m};
+    } catch (const std::invalid_argument& e) {
+        if (!shared) throw;
+        throw SkyError(std::string(e.what()) + "; use sky_multiple_scattering with the same scene and settings");
     }
-    ctx.own = precompute_sky_tables(ctx.atmosphere, settings, hooks, units, total);
-    ctx.ms = &ctx.own;
-}
-
-// Adds the multiply-scattered radiance of one view ray (in-scatter over the whole segment
-// and the sky-lit ground, multiple_scattering.hpp) to `radiance`. `scratch` holds 3·nw.
-void add_multiple(const SkyContext& ctx, const Vec3<double>& direction, std::span<double> radiance,
-                  std::span<double> scratch) {
-    if (!ctx.ms) return;
-    const std::size_t nw = radiance.size();
-    const std::span<double> m_rayleigh = scratch.subspan(0, nw), m_mie = scratch.subspan(nw, nw),
-                            m_total = scratch.subspan(2 * nw, nw);
-    multiple_scattering_radiance(ctx.atmosphere, *ctx.ms, ViewRay{ctx.altitude_m, direction, Vec3<double>(ctx.sun)},
-                                 {m_rayleigh, m_mie, m_total}, ctx.ms_samples);
-    for (std::size_t w = 0; w < nw; ++w) radiance[w] += m_total[w];
 }
 
 // Linear Rec.709 from a spectrum, clamped at 0 like Cycles' xyz_to_rgb_clamped: saturated
@@ -249,7 +217,7 @@ long mirror_key(const glm::dvec3& sun, int width) {
 // each carry E·T/N of irradiance into the pixel they fall in, divided by that pixel's solid
 // angle. The total Σ L·Ω_pixel equals the disc's transmitted irradiance at any resolution.
 void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage& image) {
-    const Atmosphere& atm = ctx.atmosphere;
+    const Atmosphere& atm = ctx.atmosphere();
     const double alpha = atm.sun_angular_radius_rad;
     if (!(alpha > 0.0)) return;
     const std::size_t nw = atm.wavelength_count();
@@ -270,12 +238,9 @@ void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage
     std::vector<double> t_table(kTable * nw);
     for (int k = 0; k < kTable; ++k) {
         const double th = th_lo + (th_hi - th_lo) * k / (kTable - 1);
-        const auto ray = PlanetRay<double>::from_vectors(
-            atm.planet_radius_m, Vec3<double>(0.0, 0.0, atm.planet_radius_m + ctx.altitude_m),
-            Vec3<double>(std::sin(th), 0.0, std::cos(th)));
-        std::span<double> t(t_table.data() + k * nw, nw);
-        if (hits_ground(ray)) std::fill(t.begin(), t.end(), 0.0);
-        else transmittance(atm, ray, 0.0, std::numeric_limits<double>::infinity(), t);
+        // The view ray toward the disc is a sun ray from the observer (0 behind the planet).
+        sun_transmittance(atm, ctx.altitude_m, ZenithAngle<double>{std::cos(th), std::sin(th)},
+                          std::span<double>(t_table.data() + k * nw, nw));
     }
 
     // Orthonormal frame around the sun direction.
@@ -396,15 +361,16 @@ int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
 }
 
 MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
-    const SkyContext ctx = prepare(scene, settings);
-    return precompute_sky_tables(ctx.atmosphere, settings, hooks, 1000, 1000);
+    const SkyInputs in = prepare(scene, settings);
+    MultipleScatteringOptions options = ms_options(settings);
+    return *compute_tables(in.atmosphere, options, settings.threads, hooks, 1000, 1000);
 }
 
 FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks,
                       const MultipleScattering* tables) {
-    SkyContext ctx = prepare(scene, settings);
+    SkyInputs in = prepare(scene, settings);
     const int W = settings.width, H = settings.height;
-    const std::size_t nw = ctx.atmosphere.wavelength_count();
+    const std::size_t nw = in.atmosphere.wavelength_count();
     FloatImage image;
     try {
         image = FloatImage(W, H, 3);
@@ -414,12 +380,12 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     }
     const bool upper = settings.region == SkyRegion::upper;
     const int image_rows = upper ? (H + 1) / 2 : H;  // rows whose centre is at or above the horizon
-    const long key = mirror_key(ctx.sun, W);
-    const double sun_phi = std::atan2(ctx.sun.y, ctx.sun.x);
+    const long key = mirror_key(in.sun, W);
+    const double sun_phi = std::atan2(in.sun.y, in.sun.x);
 
     // Per pixel or through the grid?
     SkyGrid grid;
-    grid.hz = horizon_of(ctx.atmosphere, ctx.altitude_m);
+    grid.hz = horizon_of(in.atmosphere, in.altitude_m);
     const int G = effective_sky_grid(scene, settings);
     if (G > 0) {
         grid.intervals = G;
@@ -437,18 +403,17 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     };
     auto cancelled = [&] { return hooks.cancel && hooks.cancel->requested(); };
 
-    attach_tables(ctx, settings, hooks, tables, ms_work, total_work);
+    const SkyContext ctx = make_context(std::move(in), settings, hooks, tables, ms_work, total_work);
 
     const int threads = settings.threads > 0 ? settings.threads : hardware_threads();
 
     // Scratch per thread for one batch of rays.
     struct Scratch {
         std::vector<Vec3<double>> dirs;
-        std::vector<double> transmittance, rayleigh, mie, radiance, multiple;
+        std::vector<double> transmittance, rayleigh, mie, radiance;
         void resize(std::size_t n, std::size_t nw) {
             dirs.resize(n);
             for (auto* v : {&transmittance, &rayleigh, &mie, &radiance}) v->resize(n * nw);
-            multiple.resize(3 * nw);
         }
         RadianceOut out(std::size_t n, std::size_t nw) {
             return {{transmittance.data(), n * nw}, {rayleigh.data(), n * nw}, {mie.data(), n * nw},
@@ -456,13 +421,10 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         }
     };
     std::vector<Scratch> scratch(static_cast<std::size_t>(threads));
-    // Single scattering for a batch of directions, then each ray's multiple scattering.
+    // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate = [&](Scratch& s, std::size_t n) {
-        single_scattering_batch(ctx.atmosphere, ctx.altitude_m, Vec3<double>(ctx.sun),
-                                std::span<const Vec3<double>>(s.dirs.data(), n), s.out(n, nw));
-        if (ctx.ms)
-            for (std::size_t k = 0; k < n; ++k)
-                add_multiple(ctx, s.dirs[k], std::span<double>(s.radiance.data() + k * nw, nw), s.multiple);
+        ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
+                               s.out(n, nw));
     };
 
     if (G > 0) {
@@ -564,20 +526,18 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
 
 std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
                                          std::span<const glm::dvec3> directions, const MultipleScattering* tables) {
-    SkyContext ctx = prepare(scene, settings);
-    ctx.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
-    attach_tables(ctx, settings, {}, tables, 0, 0);
-    const std::size_t nw = ctx.atmosphere.wavelength_count();
+    SkyInputs in = prepare(scene, settings);
+    in.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
+    const SkyContext ctx = make_context(std::move(in), settings, {}, tables, 0, 0);
+    const std::size_t nw = ctx.atmosphere().wavelength_count();
     std::vector<glm::dvec3> out(directions.size());
     parallel_for(0, directions.size(), 16, settings.threads,
                       [&](std::size_t kb, std::size_t ke, int) {
-                          std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw), multiple(3 * nw);
+                          std::vector<double> t(nw), ray(nw), mie(nw), radiance(nw);
                           for (std::size_t k = kb; k < ke; ++k) {
                               const glm::dvec3 d = glm::normalize(directions[k]);
-                              single_scattering(ctx.atmosphere,
-                                                ViewRay{ctx.altitude_m, Vec3<double>(d), Vec3<double>(ctx.sun)},
-                                                RadianceOut{t, ray, mie, radiance});
-                              add_multiple(ctx, Vec3<double>(d), radiance, multiple);
+                              ctx.evaluator.radiance(ViewRay{ctx.altitude_m, Vec3<double>(d), Vec3<double>(ctx.sun)},
+                                                     RadianceOut{t, ray, mie, radiance});
                               float px[3];
                               store_rgb(ctx.to_rgb, radiance, px);
                               out[k] = {px[0], px[1], px[2]};
@@ -642,12 +602,12 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
 
 ImageMetadata sky_metadata(const Scene& scene, const SkySettings& settings) {
     return {
-        {"airmass:version", AIRMASS_VERSION_STRING},
+        {"airmass:version", version_string()},
         {"airmass:scene", scene_to_json(scene)},
         {"airmass:settings", sky_settings_to_json(scene, settings)},
         {"airmass:convention", "blender-equirectangular"},
         {"airmass:units", "linear-rec709-blender-nishita"},
-        {"Software", std::string("airmass ") + AIRMASS_VERSION_STRING},
+        {"Software", std::string("airmass ") + version_string()},
     };
 }
 

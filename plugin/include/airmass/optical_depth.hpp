@@ -67,6 +67,34 @@ void transmittance(const Atmosphere& atmosphere, const PlanetRay<double>& ray, d
 void transmittance_between(const Atmosphere& atmosphere, Vec3<double> from_m, Vec3<double> to_m,
                            std::span<double> transmittance_out);
 
+// ---- toward the sun: the one sun-transmittance computation -----------------------------
+//
+// Every caller that needs the sunlight reaching a point (single scattering, the
+// multiple-scattering tables, the native renders, the C ABI's sun lamp, the add-on) asks
+// these two functions; nothing else computes a sun ray.
+
+// Earth's shadow: a sun ray that dips more than this below the ground is blocked. A sun ray
+// within rounding of tangent to the ground counts as lit (the grazing limit), so exactly
+// tangent geometries are decided the same way every time.
+inline constexpr double kShadowTolerance_m = 1e-6;
+
+// Whether `sun_ray` (from a point toward the sun) passes through the planet.
+inline bool in_planet_shadow(const PlanetRay<double>& sun_ray) {
+    return sun_ray.zenith.cos_chi < 0.0 && sun_ray.periapsis_altitude_m() < -kShadowTolerance_m;
+}
+
+// Masses of every constituent along the sun ray from a point at `altitude_m` whose sun
+// zenith angle is `sun_zenith`, to the top of the atmosphere (exponential profiles: H·Ch
+// at the point minus, where the top matters, the same at the ray's exit; piecewise linear:
+// the closed form). Returns false — the point is in the planet's shadow — and leaves `mass`
+// as it was when the ray is blocked. mass.size() = atmosphere.constituents.size().
+bool sun_masses(const Atmosphere& atmosphere, double altitude_m, ZenithAngle<double> sun_zenith,
+                std::span<double> mass);
+
+// T_sun(λ) = exp(−Σ_i σt_i(λ) m_i) for those masses; 0 in the shadow (returns false there).
+bool sun_transmittance(const Atmosphere& atmosphere, double altitude_m, ZenithAngle<double> sun_zenith,
+                       std::span<double> transmittance_out);
+
 // ---- brute-force reference (tests) ----------------------------------------------------
 
 // The same masses by adaptive quadrature (Boost tanh-sinh, relative tolerance `rel_tol`)

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdint>
 #include <cstddef>
+#include <functional>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -33,6 +34,16 @@ public:
 private:
     static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
     std::atomic<bool> flag_{false};
+};
+
+// The one progress/cancel type of the library's long calls (sky, render, tables, volume):
+// `work_done(units, total)` is called (from worker threads) as pieces of work finish — grid
+// rows, image rows, table stages; `total` is the same on every call — and `cancel` is polled
+// once per piece: a requested cancel makes the call throw Cancelled after its workers stop,
+// before anything is returned or written.
+struct RenderHooks {
+    const CancelFlag* cancel = nullptr;
+    std::function<void(std::size_t units, std::size_t total)> work_done;
 };
 
 }  // namespace airmass

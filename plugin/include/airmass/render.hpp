@@ -50,8 +50,8 @@
 #include "airmass/chapman.hpp"
 #include "airmass/image.hpp"
 #include "airmass/multiple_scattering.hpp"
+#include "airmass/progress.hpp"
 #include "airmass/scene.hpp"
-#include "airmass/sky.hpp"
 
 namespace airmass {
 

@@ -115,15 +115,6 @@ inline constexpr int kSkyMaxMultipleSamples = 100000;
 
 void validate(const SkySettings& settings);  // throws SkyError
 
-// Optional hooks for long renders: `work_done(units, total)` is called from worker threads
-// as pieces of work finish (grid rows, image rows; `total` is the same on every call);
-// `cancel` is polled once per row, and a requested cancel makes render_sky throw
-// Cancelled after the workers stop — before anything is returned or written.
-struct RenderHooks {
-    const CancelFlag* cancel = nullptr;
-    std::function<void(std::size_t units, std::size_t total)> work_done;
-};
-
 // The grid intervals a render will use (settings.grid resolved: 0 = every pixel).
 int effective_sky_grid(const Scene& scene, const SkySettings& settings);
 

@@ -1,10 +1,12 @@
-// Multiple scattering wired into `airmass eval` (its radiance column) and into the sky
-// texture (render_sky / sky_radiance_rgb / `airmass sky`). The tables themselves are tested
-// against Monte Carlo in test_multiple_scattering.cpp; here the question is whether each
-// consumer adds exactly the tables' view-ray radiance, once, wherever single scattering is
-// evaluated — and nothing else: the references are single_scattering and
-// multiple_scattering_radiance called directly on an independently compiled atmosphere
-// with independently computed tables.
+// The evaluator (evaluator.hpp) and its consumers. First the object itself: its radiance
+// is single scattering plus the tables' view-ray radiance, added once; its sun light is
+// E_sun·exp(−τ) with τ from brute-force quadrature of the densities (independent of the
+// Chapman path); foreign tables are refused by name. Then the consumers over it —
+// `airmass eval` (its radiance column) and the sky texture (render_sky / sky_radiance_rgb /
+// `airmass sky`) — each checked end to end against single_scattering and
+// multiple_scattering_radiance called directly on an independently compiled atmosphere with
+// independently computed tables. (The tables themselves are tested against Monte Carlo in
+// test_multiple_scattering.cpp.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,6 +25,8 @@
 #include "test_cli.hpp"
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
+#include "airmass/evaluator.hpp"
+#include "airmass/optical_depth.hpp"
 #include "airmass/geometry.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
@@ -32,6 +36,101 @@
 
 namespace airmass {
 namespace {
+
+// ---- the evaluator ---------------------------------------------------------------------------
+
+Atmosphere earth_at(std::vector<double> wavelengths) {
+    EvalSettings es;
+    es.sun_disc = false;
+    return compile_atmosphere(load_preset("earth"), wavelengths, es);
+}
+
+TEST(Evaluator, RadianceIsSingleScatteringPlusTheTablesOnce) {
+    const Atmosphere atm = earth_at({680.0, 550.0, 440.0});
+    MsSettings ms_settings;
+    ms_settings.table = {6, 16, 12, 1};
+    auto tables = std::make_shared<const MultipleScattering>(precompute_multiple_scattering(atm, ms_settings));
+    const Evaluator single(atm), both(atm, tables, 24);
+    const std::size_t nw = atm.wavelength_count();
+    for (const ViewRay& ray : {ViewRay{0.0, direction_from_zenith_azimuth_deg<double>(60.0, 0.0),
+                                       direction_from_zenith_azimuth_deg<double>(96.0, 0.0)},
+                               ViewRay{2000.0, direction_from_zenith_azimuth_deg<double>(120.0, 0.0),
+                                       direction_from_zenith_azimuth_deg<double>(30.0, 45.0)}}) {
+        std::vector<double> t(nw), r(nw), m(nw), l(nw), t1(nw), r1(nw), m1(nw), l1(nw), mr(nw), mm(nw), mt(nw);
+        std::vector<double> er(nw), em(nw), et(nw);
+        single_scattering(atm, ray, {t, r, m, l});
+        multiple_scattering_radiance(atm, *tables, ray, {er, em, et}, 24);
+        const MsRadianceOut parts{mr, mm, mt};
+        both.radiance(ray, {t1, r1, m1, l1}, &parts);
+        for (std::size_t w = 0; w < nw; ++w) {
+            EXPECT_EQ(t1[w], t[w]);
+            EXPECT_EQ(r1[w], r[w]);  // the single-scattering columns stay single scattering
+            EXPECT_EQ(mt[w], et[w]);
+            EXPECT_EQ(l1[w], l[w] + et[w]) << w;
+            EXPECT_GT(et[w], 0.0) << w;
+        }
+        // Without tables: single scattering, and the parts are zero.
+        single.radiance(ray, {t1, r1, m1, l1}, &parts);
+        for (std::size_t w = 0; w < nw; ++w) {
+            EXPECT_EQ(l1[w], l[w]);
+            EXPECT_EQ(mt[w], 0.0);
+        }
+        // The batch form gives the same numbers.
+        std::vector<double> bt(nw), br(nw), bm(nw), bl(nw);
+        both.radiance(ray.altitude_m, ray.sun_direction, std::span<const Vec3<double>>(&ray.view_direction, 1),
+                      {bt, br, bm, bl});
+        for (std::size_t w = 0; w < nw; ++w) EXPECT_NEAR(bl[w], l[w] + et[w], 1e-12 * bl[w]) << w;
+    }
+}
+
+TEST(Evaluator, SunLightIsTheIrradianceThroughTheQuadratureOpticalDepth) {
+    const Scene scene = load_preset("earth");
+    const Atmosphere atm = earth_at({680.0, 550.0, 440.0});
+    const Evaluator ev(atm);
+    const std::size_t nw = atm.wavelength_count();
+    std::vector<double> e(nw);
+    // On the ground, in the air, above the top (space), with the sun high, low and just
+    // below the geometric horizon of a raised point.
+    for (const auto& [h, zenith_deg] : std::vector<std::pair<double, double>>{
+             {0.0, 0.0}, {0.0, 60.0}, {0.0, 89.0}, {0.0, 90.0}, {5000.0, 91.0}, {30e3, 93.0}, {400e3, 100.0}, {400e3, 30.0}}) {
+        const ZenithAngle<double> chi = ZenithAngle<double>::from_degrees(zenith_deg);
+        ASSERT_TRUE(ev.sun_light(h, chi, e)) << h << " " << zenith_deg;
+        const PlanetRay<double> ray{atm.planet_radius_m, h, chi};
+        for (std::size_t w = 0; w < nw; ++w) {
+            double tau = 0.0;
+            for (std::size_t i = 0; i < atm.constituents.size(); ++i)
+                tau += atm.constituents[i].extinction_per_m[w] *
+                       profile_segment_mass_reference(scene.constituents[atm.constituents[i].scene_index].profile, ray,
+                                                      atm.top_altitude_m, 0.0, std::numeric_limits<double>::infinity());
+            const double expected = atm.sun_irradiance[w] * std::exp(-tau);
+            EXPECT_NEAR(e[w], expected, 1e-6 * expected + 1e-300) << h << " m, " << zenith_deg << " deg, w " << w;
+            EXPECT_TRUE(std::isfinite(e[w]) && e[w] >= 0.0);
+        }
+    }
+    // Behind the planet: false and zeros.
+    EXPECT_FALSE(ev.sun_light(0.0, ZenithAngle<double>::from_degrees(90.5), e));
+    for (double v : e) EXPECT_EQ(v, 0.0);
+    EXPECT_FALSE(ev.sun_light(400e3, ZenithAngle<double>::from_degrees(180.0), e));
+}
+
+TEST(Evaluator, ForeignTablesAndBadSamplesAreRefusedByName) {
+    const Atmosphere three = earth_at({680.0, 550.0, 440.0});
+    MsSettings ms_settings;
+    ms_settings.table = {4, 8, 8, 1};
+    auto tables = std::make_shared<const MultipleScattering>(precompute_multiple_scattering(three, ms_settings));
+    try {
+        Evaluator(earth_at({450.0, 550.0}), tables);
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("multiple-scattering tables"), std::string::npos) << e.what();
+    }
+    try {
+        Evaluator(three, tables, 0);
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("multiple.view_samples = 0"), std::string::npos) << e.what();
+    }
+}
 
 // ---- `airmass eval` ------------------------------------------------------------------------
 
@@ -109,7 +208,7 @@ ViewRay eval_ray(const std::map<std::string, double>& r) {
             direction_from_zenith_azimuth_deg<double>(r.at("sun_zenith_deg"), r.at("azimuth_deg"))};
 }
 
-TEST(MsWiringEval, RadianceIsSingleScatteringPlusTheTablesViewRayRadiance) {
+TEST(EvaluatorInEval, RadianceIsSingleScatteringPlusTheTablesViewRayRadiance) {
     int status = 0;
     const std::string with_text = eval_cli("--ms-columns", status);
     ASSERT_EQ(status, 0) << with_text;
@@ -184,7 +283,7 @@ TEST(MsWiringEval, RadianceIsSingleScatteringPlusTheTablesViewRayRadiance) {
     }
 }
 
-TEST(MsWiringEval, TableOptionsAreUsedAndCheckedByName) {
+TEST(EvaluatorInEval, TableOptionsAreUsedAndCheckedByName) {
     int status = 0;
     std::string out = eval_cli("--ms-orders 1", status);
     EXPECT_NE(status, 0);
@@ -247,7 +346,7 @@ SkySettings sky_settings(int w, int h) {
 
 double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
 
-TEST(MsWiringSky, PixelIsTheSingleScatteringPixelPlusTheTablesRadianceInRgb) {
+TEST(EvaluatorInSky, PixelIsTheSingleScatteringPixelPlusTheTablesRadianceInRgb) {
     Scene scene = earth_rgb();
     scene.sun.elevation_deg = 8.0;
     scene.sun.azimuth_deg = 33.0;  // no mirror: every pixel evaluated
@@ -300,7 +399,7 @@ TEST(MsWiringSky, PixelIsTheSingleScatteringPixelPlusTheTablesRadianceInRgb) {
     }
 }
 
-TEST(MsWiringSky, GridWithMultipleScatteringWithinTheDocumentedTolerance) {
+TEST(EvaluatorInSky, GridWithMultipleScatteringWithinTheDocumentedTolerance) {
     // docs/sky.md: the grid against per-pixel evaluation, 95th percentile < 0.2 %, worst
     // pixel < 1 % (the same measure as test_sky.cpp's SkyGrid test), now with the
     // multiple-scattering radiance on the grid nodes.
@@ -330,7 +429,7 @@ TEST(MsWiringSky, GridWithMultipleScatteringWithinTheDocumentedTolerance) {
     }
 }
 
-TEST(MsWiringSky, MultipleScatteringMattersMostInTheEarthsShadow) {
+TEST(EvaluatorInSky, MultipleScatteringMattersMostInTheEarthsShadow) {
     // The half of the sky away from the sun (sun rotation 0°: toward +Y; that half is y < 0),
     // above the horizon: multiple scattering brightens it by day and far more, relatively,
     // at twilight, when the low sky there lies in the Earth's shadow.
@@ -355,7 +454,7 @@ TEST(MsWiringSky, MultipleScatteringMattersMostInTheEarthsShadow) {
     EXPECT_GT(ratio[-6.0], 2.0 * ratio[45.0]) << ratio[45.0];
 }
 
-TEST(MsWiringSky, FiniteAndNonNegativeAtTheExtremes) {
+TEST(EvaluatorInSky, FiniteAndNonNegativeAtTheExtremes) {
     for (const char* preset : {"earth", "mars"}) {
         Scene scene = load_preset(preset);
         scene.basis.kind = SpectralBasis::Kind::rgb_schuler;
@@ -382,7 +481,7 @@ TEST(MsWiringSky, FiniteAndNonNegativeAtTheExtremes) {
     }
 }
 
-TEST(MsWiringSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) {
+TEST(EvaluatorInSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) {
     const Scene scene = earth_rgb();
     SkySettings s = sky_settings(64, 32);
     s.multiple.max_order = 5;
@@ -400,7 +499,7 @@ TEST(MsWiringSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) {
     EXPECT_FALSE(j.contains("multiple"));
 }
 
-TEST(MsWiringSky, BadSettingsAndForeignTablesNameTheField) {
+TEST(EvaluatorInSky, BadSettingsAndForeignTablesNameTheField) {
     SkySettings s;
     s.multiple_samples = 0;
     try {
@@ -435,7 +534,7 @@ TEST(MsWiringSky, BadSettingsAndForeignTablesNameTheField) {
     }
 }
 
-TEST(MsWiringSky, PrecomputeReportsProgressAndCanBeCancelled) {
+TEST(EvaluatorInSky, PrecomputeReportsProgressAndCanBeCancelled) {
     const Scene scene = earth_rgb();
     SkySettings s = sky_settings(64, 32);
     s.grid = 0;

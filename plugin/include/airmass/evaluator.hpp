@@ -1,0 +1,103 @@
+// The evaluator: the one object every consumer asks for light in the atmosphere.
+//
+// Pipeline (docs/architecture.md): Scene → compile_atmosphere (atmosphere.hpp) → Evaluator
+// (this file: the compiled atmosphere, plus the multiple-scattering tables when they are
+// asked for) → writers (sky images, camera renders, `airmass eval`, the C ABI and the
+// add-on's sun lamp, the volume export's lamp). In the manner of Bruneton's
+// `Model::GetSkyRadiance / GetSkyRadianceToPoint / GetSunAndSkyIrradiance`:
+//
+//   radiance(view ray)          L(λ) seen along a ray: single scattering of sunlight, the
+//                               sunlit ground, the sun disc (EvalSettings), and — with
+//                               tables — the multiply-scattered light along the ray and on
+//                               the ground (multiple_scattering.hpp). Added exactly once here,
+//                               so no caller adds the tables itself.
+//   aerial_perspective(a → b)   T and in-scatter S between two points (single scattering).
+//   transmittance(segment)      T(λ) along a segment of a ray (0 through the ground).
+//   sun_light(point)            the direct sunlight reaching a point, E_sun(λ)·T_sun(λ)
+//                               (0 in the planet's shadow) — the one sun-ray computation,
+//                               optical_depth.hpp sun_masses.
+//
+// Units: metres, unit direction vectors in the evaluator's frame (planet centre at the
+// origin, the observer on +Z: see single_scattering.hpp ViewRay); radiance in
+// W m⁻² sr⁻¹ nm⁻¹ and irradiance in W m⁻² nm⁻¹ for the atmosphere's E_sun.
+// Every member is const and thread-safe; an Evaluator is cheap to move and its tables can
+// be shared between evaluators of one atmosphere (a sequence of sun positions).
+#pragma once
+
+#include <memory>
+#include <span>
+
+#include "airmass/atmosphere.hpp"
+#include "airmass/geometry.hpp"
+#include "airmass/multiple_scattering.hpp"
+#include "airmass/progress.hpp"
+#include "airmass/single_scattering.hpp"
+
+namespace airmass {
+
+// How the multiple-scattering part is computed: whether at all, its tables and the
+// quadrature along each view ray. One struct for every consumer (sky, render, eval, C ABI).
+struct MultipleScatteringOptions {
+    bool enabled = true;
+    MsSettings tables{};
+    int view_samples = 32;  // quadrature intervals per view ray (multiple_scattering_radiance)
+};
+
+class Evaluator {
+public:
+    // Single scattering only.
+    explicit Evaluator(Atmosphere atmosphere);
+    // With multiple-scattering tables computed for this atmosphere (same wavelengths and
+    // constituents; std::invalid_argument otherwise) and `ms_view_samples` intervals per ray.
+    Evaluator(Atmosphere atmosphere, std::shared_ptr<const MultipleScattering> tables, int ms_view_samples = 32);
+
+    const Atmosphere& atmosphere() const { return atmosphere_; }
+    std::size_t wavelength_count() const { return atmosphere_.wavelength_count(); }
+    // The tables in use, or null (single scattering only).
+    const MultipleScattering* tables() const { return tables_.get(); }
+    const std::shared_ptr<const MultipleScattering>& shared_tables() const { return tables_; }
+    int ms_view_samples() const { return ms_view_samples_; }
+
+    // The radiance along one view ray. out.radiance is the total (single + ground + disc +
+    // multiple); out.radiance_rayleigh / radiance_mie the single-scattering in-scatter.
+    // `multiple`, if given, receives the multiple-scattering parts (zero without tables).
+    void radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOut* multiple = nullptr) const;
+    // Many view directions from one observer (ray-major spans, n × wavelength_count()).
+    void radiance(double altitude_m, Vec3<double> sun_direction, std::span<const Vec3<double>> view_directions,
+                  RadianceOut out) const;
+
+    // Aerial perspective (single_scattering.hpp aerial_perspective): T and S from `from_m` to
+    // `to_m` (planet-centred metres), or along that ray out of the atmosphere.
+    void aerial_perspective(Vec3<double> from_m, Vec3<double> to_m, Vec3<double> sun_direction, bool to_infinity,
+                            std::span<double> transmittance_out, std::span<double> inscatter_out) const;
+
+    // T(λ) along t ∈ [t0, t1] of `ray` (t1 may be +inf: out of the atmosphere); 0 through
+    // the ground.
+    void transmittance(const PlanetRay<double>& ray, double t0_m, double t1_m, std::span<double> out) const;
+
+    // Direct sunlight at a point `altitude_m` above the ground whose sun direction makes the
+    // zenith cosine `sun_zenith`: E_sun(λ)·T_sun(λ) in `irradiance_out` (W m⁻² nm⁻¹ on a
+    // surface facing the sun). Returns false — and zeros — in the planet's shadow.
+    bool sun_light(double altitude_m, ZenithAngle<double> sun_zenith, std::span<double> irradiance_out) const;
+
+private:
+    Atmosphere atmosphere_;
+    std::shared_ptr<const MultipleScattering> tables_;
+    int ms_view_samples_ = 32;
+};
+
+// The multiple-scattering tables of `atmosphere` with `options.tables` (threads and cancel
+// defaulted from `threads` and `hooks.cancel`), progress reported through hooks.work_done as
+// `units` of `total` while they are computed. Throws Cancelled.
+std::shared_ptr<const MultipleScattering> compute_tables(const Atmosphere& atmosphere,
+                                                         const MultipleScatteringOptions& options, int threads,
+                                                         const RenderHooks& hooks = {}, std::size_t units = 0,
+                                                         std::size_t total = 0);
+
+// The evaluator of `atmosphere` with the options: given `tables` are checked and shared,
+// else computed when options.enabled (compute_tables). Single scattering when disabled.
+Evaluator make_evaluator(Atmosphere atmosphere, const MultipleScatteringOptions& options, int threads = 0,
+                         const RenderHooks& hooks = {}, std::shared_ptr<const MultipleScattering> tables = nullptr,
+                         std::size_t units = 0, std::size_t total = 0);
+
+}  // namespace airmass

@@ -1,0 +1,131 @@
+// The evaluator (evaluator.hpp): single scattering, plus the multiple-scattering tables'
+// radiance added once here, the sun light through the one sun-ray computation, and the
+// tables' precompute with the library's progress/cancel hooks.
+#include "airmass/evaluator.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "airmass/optical_depth.hpp"
+
+namespace airmass {
+
+namespace {
+
+void check_tables(const Atmosphere& atm, const MultipleScattering& ms) {
+    if (ms.empty() || ms.wavelength_count != atm.wavelength_count() || ms.slot.size() != atm.constituents.size())
+        throw std::invalid_argument(
+            "multiple-scattering tables: computed for " + std::to_string(ms.wavelength_count) + " wavelengths and " +
+            std::to_string(ms.slot.size()) + " constituents, the atmosphere has " +
+            std::to_string(atm.wavelength_count()) + " and " + std::to_string(atm.constituents.size()) +
+            " (compute them for the same scene, wavelengths and settings)");
+}
+
+// Per-call scratch for the multiple-scattering parts: on the stack up to 64 wavelengths.
+struct MsScratch {
+    static constexpr std::size_t kStack = 64;
+    double stack[3 * kStack];
+    std::vector<double> heap;
+    std::span<double> rayleigh, mie, total;
+    explicit MsScratch(std::size_t nw) {
+        double* p = stack;
+        if (nw > kStack) {
+            heap.resize(3 * nw);
+            p = heap.data();
+        }
+        rayleigh = {p, nw};
+        mie = {p + nw, nw};
+        total = {p + 2 * nw, nw};
+    }
+};
+
+}  // namespace
+
+Evaluator::Evaluator(Atmosphere atmosphere) : atmosphere_(std::move(atmosphere)) {}
+
+Evaluator::Evaluator(Atmosphere atmosphere, std::shared_ptr<const MultipleScattering> tables, int ms_view_samples)
+    : atmosphere_(std::move(atmosphere)), tables_(std::move(tables)), ms_view_samples_(ms_view_samples) {
+    if (tables_) check_tables(atmosphere_, *tables_);
+    if (ms_view_samples_ < 1 || ms_view_samples_ > 100000)
+        throw std::invalid_argument("multiple.view_samples = " + std::to_string(ms_view_samples_) +
+                                    ": must be in [1, 100000]");
+}
+
+void Evaluator::radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOut* multiple) const {
+    single_scattering(atmosphere_, ray, out);
+    const std::size_t nw = wavelength_count();
+    if (!tables_) {
+        if (multiple) {
+            std::fill_n(multiple->multiple_rayleigh.begin(), nw, 0.0);
+            std::fill_n(multiple->multiple_mie.begin(), nw, 0.0);
+            std::fill_n(multiple->multiple.begin(), nw, 0.0);
+        }
+        return;
+    }
+    MsScratch scratch(multiple ? 0 : nw);
+    const MsRadianceOut parts = multiple ? *multiple : MsRadianceOut{scratch.rayleigh, scratch.mie, scratch.total};
+    multiple_scattering_radiance(atmosphere_, *tables_, ray, parts, ms_view_samples_);
+    for (std::size_t w = 0; w < nw; ++w) out.radiance[w] += parts.multiple[w];
+}
+
+void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Vec3<double>> dirs,
+                         RadianceOut out) const {
+    single_scattering_batch(atmosphere_, altitude_m, sun, dirs, out);
+    if (!tables_) return;
+    const std::size_t nw = wavelength_count();
+    MsScratch scratch(nw);
+    for (std::size_t k = 0; k < dirs.size(); ++k) {
+        multiple_scattering_radiance(atmosphere_, *tables_, ViewRay{altitude_m, dirs[k], sun},
+                                     {scratch.rayleigh, scratch.mie, scratch.total}, ms_view_samples_);
+        double* L = out.radiance.data() + k * nw;
+        for (std::size_t w = 0; w < nw; ++w) L[w] += scratch.total[w];
+    }
+}
+
+void Evaluator::aerial_perspective(Vec3<double> from_m, Vec3<double> to_m, Vec3<double> sun, bool to_infinity,
+                                   std::span<double> T, std::span<double> S) const {
+    airmass::aerial_perspective(atmosphere_, from_m, to_m, sun, to_infinity, T, S);
+}
+
+void Evaluator::transmittance(const PlanetRay<double>& ray, double t0, double t1, std::span<double> out) const {
+    airmass::transmittance(atmosphere_, ray, t0, t1, out);
+}
+
+bool Evaluator::sun_light(double altitude_m, ZenithAngle<double> sun_zenith, std::span<double> out) const {
+    const bool lit = sun_transmittance(atmosphere_, altitude_m, sun_zenith, out);
+    for (std::size_t w = 0; w < wavelength_count(); ++w) out[w] *= atmosphere_.sun_irradiance[w];
+    return lit;
+}
+
+std::shared_ptr<const MultipleScattering> compute_tables(const Atmosphere& atmosphere,
+                                                         const MultipleScatteringOptions& options, int threads,
+                                                         const RenderHooks& hooks, std::size_t units,
+                                                         std::size_t total) {
+    MsSettings m = options.tables;
+    if (m.threads == 0) m.threads = threads;
+    if (!m.cancel) m.cancel = hooks.cancel;
+    // Called from the calling thread only (multiple_scattering.hpp), so plain state is enough.
+    std::size_t reported = 0;
+    const auto user = options.tables.progress;
+    m.progress = [&, user](double fraction, int order) {
+        if (user) user(fraction, order);
+        const auto now = static_cast<std::size_t>(std::clamp(fraction, 0.0, 1.0) * double(units));
+        if (now > reported && hooks.work_done) hooks.work_done(now - reported, total);
+        reported = std::max(reported, now);
+    };
+    auto ms = std::make_shared<MultipleScattering>(precompute_multiple_scattering(atmosphere, m));
+    if (units > reported && hooks.work_done) hooks.work_done(units - reported, total);
+    return ms;
+}
+
+Evaluator make_evaluator(Atmosphere atmosphere, const MultipleScatteringOptions& options, int threads,
+                         const RenderHooks& hooks, std::shared_ptr<const MultipleScattering> tables, std::size_t units,
+                         std::size_t total) {
+    if (!options.enabled) return Evaluator(std::move(atmosphere));
+    if (!tables) tables = compute_tables(atmosphere, options, threads, hooks, units, total);
+    return Evaluator(std::move(atmosphere), std::move(tables), options.view_samples);
+}
+
+}  // namespace airmass
