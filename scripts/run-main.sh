@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's main command: installs what is missing, builds, and runs the main job on the
+# The README's main command: installs what is missing, builds, and runs the user's job on the
 # default scene (examples/compare/ground-noon.toml: the `earth` preset, a camera 2 m above the
 # ground looking at the horizon, the sun at 60°), writing everything into out/ (or $1):
 #
@@ -10,11 +10,10 @@
 #                              analytic volume, VDB volume, analytic volume with multiple
 #                              scattering): report.md, PNGs, summary.json
 #   out/gallery/               skies from sunrise to orbit (EXR + PNG)
-#   out/chapman|sky|vdb|ms/    the measured speed-vs-accuracy trades (tables, CSV, plots)
 #
-# Then scripts/update_readme.py copies the tables and images into README.md.
-# Environment: AIRMASS_BUILD_DIR (default build/), COMPARE_WIDTH (default 64 px), COMPARE_SAMPLES (default 32 per seed),
-# AIRMASS_QUICK=1 (smaller trade reports, for a smoke run).
+# It modifies no tracked file. The measured speed-vs-accuracy trades and the README's tables
+# are the maintainers' script, scripts/run-trades.sh.
+# Environment: AIRMASS_BUILD_DIR (default build/), COMPARE_WIDTH (default 64 px), COMPARE_SAMPLES (default 32 per seed).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$(realpath -m "${1:-$root/out}")"
@@ -24,11 +23,9 @@ build="${AIRMASS_BUILD_DIR:-$root/build}"
 airmass="$build/bin/airmass"
 py=/usr/bin/python3
 scene="$root/examples/compare/ground-noon.toml"
-quick=()
-[ "${AIRMASS_QUICK:-0}" = 1 ] && quick=(--quick)
 mkdir -p "$out/main"
 SECONDS=0
-stage() { echo; echo "== [$((SECONDS / 60)) min] $*"; }
+stage() { echo; echo "== [$((SECONDS / 60)) min $((SECONDS % 60)) s] $*"; }
 
 stage "sky texture of the default scene -> $out/main/sky.exr"
 "$airmass" sky "$scene" -o "$out/main/sky.exr"
@@ -43,22 +40,4 @@ stage "render vs native in Blender -> $out/compare"
 stage "sky gallery -> $out/gallery"
 bash "$root/scripts/gallery.sh" "$out/gallery" "$build" 1024
 
-stage "Chapman function trade -> $out/chapman"
-"$airmass" report chapman --out "$out/chapman" > /dev/null
-"$py" "$root/scripts/plot_chapman.py" "$out/chapman"
-
-stage "sky texture trade -> $out/sky"
-"$airmass" report sky --out "$out/sky" "${quick[@]}"
-"$py" "$root/scripts/plot_sky_trade.py" "$out/sky" --png "$out/sky/sky_pareto.png"
-
-stage "voxel-size trade -> $out/vdb"
-"$airmass" report vdb --out "$out/vdb"
-"$py" "$root/scripts/plot_vdb_trade.py" "$out/vdb"
-
-stage "multiple scattering trade -> $out/ms"
-"$airmass" report ms --out "$out/ms" "${quick[@]}"
-"$py" "$root/scripts/plot_ms_trade.py" "$out/ms/ms_trade.csv" -o "$out/ms/ms_trade.png"
-
-stage "README tables and images"
-"$py" "$root/scripts/update_readme.py" "$out"
-echo "== done in $((SECONDS / 60)) min: $out (open $out/compare/report.md)"
+echo "== done in $((SECONDS / 60)) min $((SECONDS % 60)) s: $out (open $out/compare/report.md)"
