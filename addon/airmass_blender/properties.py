@@ -60,15 +60,20 @@ _CHAPMAN_ITEMS = _chapman_items()
 
 # ---- update callbacks -------------------------------------------------------------------
 
+# Called with the scene when the sun angles change and live sync is on. sun.py adds its
+# lamp sync here at register(), so this module never imports sun.py (one direction only).
+sun_changed_hooks = []
+
+
 def _sun_changed(self, context):
     # Live sync to the Sun lamp (sun.py), only when the user asked for it.
     if self.sun_live_sync and not _Guard.active:
-        from . import sun
         with _Guard():
-            try:
-                sun.settings_to_lamp(context.scene, create=False)
-            except Exception:
-                pass  # a bad value is reported when an operator runs; never raise in an update
+            for hook in list(sun_changed_hooks):
+                try:
+                    hook(context.scene)
+                except Exception:
+                    pass  # a bad value is reported when an operator runs; never raise in an update
 
 
 def _scene_changed(self, context):

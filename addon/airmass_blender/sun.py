@@ -25,7 +25,7 @@ import math
 import bpy
 from mathutils import Euler, Vector
 
-from . import compat, native
+from . import compat, native, properties
 from .properties import _Guard, make_spec
 
 LAMP_NAME = "Airmass Sun"
@@ -171,11 +171,19 @@ def _depsgraph_update(scene, depsgraph):
             return
 
 
+def _sync_lamp(scene):
+    settings_to_lamp(scene, create=False)
+
+
 def register():
     if _depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.append(_depsgraph_update)
+    if _sync_lamp not in properties.sun_changed_hooks:
+        properties.sun_changed_hooks.append(_sync_lamp)
 
 
 def unregister():
+    if _sync_lamp in properties.sun_changed_hooks:
+        properties.sun_changed_hooks.remove(_sync_lamp)
     if _depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(_depsgraph_update)

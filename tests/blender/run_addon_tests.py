@@ -436,6 +436,20 @@ def test_sun_sync_both_ways():
     s.sun_elevation = math.radians(-10.0)
     check(bpy.ops.airmass.sun_sync(direction="TO_LAMP") == {"FINISHED"}, "sun_sync below horizon")
     check(lamp.data.energy == 0.0, "sun below the horizon still lights (%g)" % lamp.data.energy)
+    # Live sync (the update callback's hook that sun.py registers): changing the angles moves
+    # the lamp without an operator; with live sync off it stays.
+    s.sun_live_sync = True
+    s.sun_elevation, s.sun_rotation = math.radians(35.0), math.radians(120.0)
+    bpy.context.view_layer.update()
+    z = lamp.matrix_world.to_3x3() @ Vector((0, 0, 1))
+    check(angle_deg(tuple(z), sky_texture_sun(s.sun_elevation, s.sun_rotation)) < 1e-4, "live sync did not move the lamp")
+    check(lamp.data.energy > 0.0, "live sync did not relight the lamp")
+    s.sun_live_sync = False
+    s.sun_elevation = math.radians(10.0)
+    bpy.context.view_layer.update()
+    z = lamp.matrix_world.to_3x3() @ Vector((0, 0, 1))
+    check(angle_deg(tuple(z), sky_texture_sun(math.radians(35.0), math.radians(120.0))) < 1e-4,
+          "the lamp moved with live sync off")
 
 
 def check_closed_shell(obj, center, r_ground, r_top, theta):
