@@ -58,11 +58,15 @@ def build_info(lib):
 
 def render(lib, width, threads, multiple=True):
     spec = SceneSpec()
-    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    spec.struct_size = ctypes.sizeof(spec)  # C ABI 4: the host's size, refused if stale
+    if lib.airmass_scene_spec_init(ctypes.byref(spec)) != 0:
+        sys.exit("airmass_scene_spec_init refused struct_size %d: this mirror is stale" % spec.struct_size)
     spec.preset = b"earth"
     spec.sun_elevation_deg = 30.0
     opts = SkyOptions()
-    lib.airmass_sky_options_init(ctypes.byref(opts))
+    opts.struct_size = ctypes.sizeof(opts)
+    if lib.airmass_sky_options_init(ctypes.byref(opts)) != 0:
+        sys.exit("airmass_sky_options_init refused struct_size %d: this mirror is stale" % opts.struct_size)
     opts.width, opts.height, opts.threads = width, width // 2, threads
     opts.multiple_scattering = 1 if multiple else 0
     n = width * (width // 2) * 4

@@ -4,7 +4,8 @@ Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and fr
 plain Python tests. The library is looked up next to this file (the add-on zip bundles
 it: libairmass_c.so on Linux, airmass_c.dll on Windows) unless the environment variable
 AIRMASS_C_LIBRARY names another file. The library has no shared dependencies beyond the
-C/C++ runtime (C ABI 3: it writes no files; the host stores what it returns).
+C/C++ runtime (C ABI 4: it writes no files, the host stores what it returns; every struct's
+struct_size is set here from ctypes.sizeof of its mirror, and the library refuses another size).
 
 Every wrapper raises NativeError (with the library's status and message) on failure, so
 callers report one exception type. The library never aborts; a wrapper never leaves a
@@ -17,7 +18,7 @@ import os
 import sys
 import threading
 
-ABI_VERSION = 3
+ABI_VERSION = 4
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 # File name of the library per platform (sys.platform prefix → name). The add-on zip carries
 # the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
@@ -160,23 +161,39 @@ _SIGNATURES = {
     "airmass_string_free": (None, [ctypes.c_void_p]),
     "airmass_preset_names": (ctypes.c_int32, [_OUT, ctypes.c_void_p, _SIZE]),
     "airmass_chapman_method_names": (ctypes.c_int32, [_OUT, ctypes.c_void_p, _SIZE]),
-    "airmass_scene_spec_init": (None, [ctypes.POINTER(SceneSpec)]),
+    "airmass_scene_spec_init": (ctypes.c_int32, [ctypes.POINTER(SceneSpec)]),
     "airmass_validate_scene": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), _OUT, ctypes.c_void_p, _SIZE]),
     "airmass_cancel_token_new": (ctypes.c_void_p, []),
     "airmass_cancel_token_request": (None, [ctypes.c_void_p]),
     "airmass_cancel_token_reset": (None, [ctypes.c_void_p]),
     "airmass_cancel_token_requested": (ctypes.c_int32, [ctypes.c_void_p]),
     "airmass_cancel_token_free": (None, [ctypes.c_void_p]),
-    "airmass_sky_options_init": (None, [ctypes.POINTER(SkyOptions)]),
+    "airmass_sky_options_init": (ctypes.c_int32, [ctypes.POINTER(SkyOptions)]),
     "airmass_render_sky": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
                                             ctypes.POINTER(ctypes.c_float), _SIZE, ctypes.POINTER(Job), _OUT,
                                             ctypes.c_void_p, _SIZE]),
     "airmass_sun_light_at_observer": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.c_char_p,
                                                        ctypes.POINTER(SunLight), ctypes.c_void_p, _SIZE]),
-    "airmass_vdb_options_init": (None, [ctypes.POINTER(VdbOptions)]),
+    "airmass_vdb_options_init": (ctypes.c_int32, [ctypes.POINTER(VdbOptions)]),
     "airmass_analytic_density_json": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                        _OUT, ctypes.c_void_p, _SIZE]),
 }
+
+
+def _init_struct(init, struct, c_name):
+    """Fills `struct` with the library's defaults through `init` (airmass_*_init). struct_size is
+    this mirror's ctypes.sizeof: a library whose struct differs refuses it (and writes nothing), so
+    a stale mirror is an error here rather than a silent misreading."""
+    size = ctypes.sizeof(struct)
+    struct.struct_size = size
+    status = init(ctypes.byref(struct))
+    if status != OK:
+        raise NativeError(status, "Airmass: %s_init refused struct_size %d: the add-on's mirror of %s "
+                                  "(native.py) does not match the native library '%s' (C ABI %d); install the "
+                                  "add-on and its library from the same build"
+                          % (c_name, size, c_name, _state.get("path") or "?", ABI_VERSION))
+    return struct
+
 
 _lock = threading.Lock()
 _state = {"lib": None, "error": None, "path": None, "dll_directory": None}
@@ -316,7 +333,7 @@ class Spec:
     def _to_c(self, lib):
         """Returns (SceneSpec, keepalive) — keepalive holds buffers the struct points to."""
         spec = SceneSpec()
-        lib.airmass_scene_spec_init(ctypes.byref(spec))
+        _init_struct(lib.airmass_scene_spec_init, spec, "airmass_scene_spec")
         keep = []
         spec.toml = _bytes(self.toml)
         spec.preset = _bytes(self.preset)
@@ -469,7 +486,7 @@ def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_
     lib = library()
     c_spec, keep = spec._to_c(lib)
     opts = SkyOptions()
-    lib.airmass_sky_options_init(ctypes.byref(opts))
+    _init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
     opts.width = int(width)
     opts.height = int(height)
     if view_samples is not None:
@@ -530,7 +547,7 @@ def sun_light(spec, chapman=None):
 def _vdb_options(lib, region="planet", unit="km", origin_center=False, voxel_size=None, box=None,
                  tolerance=None, max_dense_mb=None, tile_voxels=0):
     opts = VdbOptions()
-    lib.airmass_vdb_options_init(ctypes.byref(opts))
+    _init_struct(lib.airmass_vdb_options_init, opts, "airmass_vdb_options")
     keep = [_bytes(region), _bytes(unit)]
     opts.region, opts.unit = keep
     opts.origin_center = 1 if origin_center else 0
@@ -560,7 +577,7 @@ class VdbBlock(ctypes.Structure):
 _SIGNATURES.update({
     "airmass_vdb_plan": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions), ctypes.c_char_p,
                                           ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
-    "airmass_vdb_block_init": (None, [ctypes.POINTER(VdbBlock)]),
+    "airmass_vdb_block_init": (ctypes.c_int32, [ctypes.POINTER(VdbBlock)]),
     "airmass_vdb_grid_values": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                  ctypes.POINTER(VdbBlock), ctypes.POINTER(ctypes.c_float), _SIZE,
                                                  ctypes.POINTER(Job), ctypes.c_void_p, _SIZE]),
@@ -603,7 +620,7 @@ def vdb_grid_values(spec, grid, box_min, box_max, progress=None, progress_range=
     c_spec, keep = spec._to_c(lib)
     opts, keep2 = _vdb_options(lib, **vdb)
     block = VdbBlock()
-    lib.airmass_vdb_block_init(ctypes.byref(block))
+    _init_struct(lib.airmass_vdb_block_init, block, "airmass_vdb_block")
     name = _bytes(grid)
     block.grid = name
     for a in range(3):

@@ -212,8 +212,8 @@ int32_t airmass_chapman_method_names(char** out, char* message, size_t message_s
     });
 }
 
-void airmass_scene_spec_init(airmass_scene_spec* spec) {
-    if (!spec) return;
+int32_t airmass_scene_spec_init(airmass_scene_spec* spec) {
+    if (!init_size_ok(spec)) return AIRMASS_INVALID_ARGUMENT;
     const double nan = std::numeric_limits<double>::quiet_NaN();
     *spec = airmass_scene_spec{};
     spec->struct_size = sizeof(airmass_scene_spec);
@@ -226,6 +226,7 @@ void airmass_scene_spec_init(airmass_scene_spec* spec) {
     spec->camera_max_distance_m = 200e3;
     spec->camera_width = 640;
     spec->camera_height = 360;
+    return AIRMASS_OK;
 }
 
 int32_t airmass_validate_scene(const airmass_scene_spec* spec, char** scene_json, char* message, size_t message_size) {
@@ -247,8 +248,8 @@ int32_t airmass_cancel_token_requested(const airmass_cancel_token* token) {
 }
 void airmass_cancel_token_free(airmass_cancel_token* token) { delete token; }
 
-void airmass_sky_options_init(airmass_sky_options* options) {
-    if (!options) return;
+int32_t airmass_sky_options_init(airmass_sky_options* options) {
+    if (!init_size_ok(options)) return AIRMASS_INVALID_ARGUMENT;
     const airmass::SkySettings d;
     *options = airmass_sky_options{};
     options->struct_size = sizeof(airmass_sky_options);
@@ -261,6 +262,7 @@ void airmass_sky_options_init(airmass_sky_options* options) {
     options->threads = d.threads;
     options->grid = d.grid;
     options->multiple_scattering = d.multiple_scattering ? 1 : 0;
+    return AIRMASS_OK;
 }
 
 int32_t airmass_render_sky(const airmass_scene_spec* spec, const airmass_sky_options* options, float* rgba,

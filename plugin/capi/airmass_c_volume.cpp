@@ -162,8 +162,8 @@ using namespace airmass::capi;
 
 extern "C" {
 
-void airmass_vdb_options_init(airmass_vdb_options* options) {
-    if (!options) return;
+int32_t airmass_vdb_options_init(airmass_vdb_options* options) {
+    if (!init_size_ok(options)) return AIRMASS_INVALID_ARGUMENT;
     const double nan = std::numeric_limits<double>::quiet_NaN();
     *options = airmass_vdb_options{};
     options->struct_size = sizeof(airmass_vdb_options);
@@ -174,10 +174,11 @@ void airmass_vdb_options_init(airmass_vdb_options* options) {
     options->tolerance = nan;
     options->max_dense_mb = nan;
     options->tile_voxels = 0;
+    return AIRMASS_OK;
 }
 
-void airmass_vdb_block_init(airmass_vdb_block* block) {
-    if (!block) return;
+int32_t airmass_vdb_block_init(airmass_vdb_block* block) {
+    if (!init_size_ok(block)) return AIRMASS_INVALID_ARGUMENT;
     *block = airmass_vdb_block{};
     block->struct_size = sizeof(airmass_vdb_block);
     block->grid = nullptr;
@@ -186,6 +187,7 @@ void airmass_vdb_block_init(airmass_vdb_block* block) {
         block->max[a] = -1;
     }
     block->threads = 0;
+    return AIRMASS_OK;
 }
 
 int32_t airmass_vdb_plan(const airmass_scene_spec* spec, const airmass_vdb_options* options, const char* file_stem,

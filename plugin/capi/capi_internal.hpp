@@ -120,6 +120,12 @@ void require_struct(const Struct* p, const char* what) {
                            " — host and library versions differ");
 }
 
+// For the *_init functions (ABI 4): the caller set struct_size; anything else is refused untouched.
+template <class Struct>
+bool init_size_ok(const Struct* p) {
+    return p && p->struct_size == sizeof(Struct);
+}
+
 inline std::string number(double v) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.6g", v);

@@ -29,6 +29,9 @@
 // A path that cannot run (an export refused, Blender failing, a missing script) is recorded
 // with an "error" in job.json and summary.json; the other paths and the report go on.
 #include <signal.h>
+#if defined(__linux__)
+#include <sys/prctl.h>
+#endif
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <fcntl.h>
@@ -166,6 +169,11 @@ fs::path find_scripts_dir(const std::string& given) {
 
 // Runs argv with stdout and stderr appended to `log`; returns the exit status (128 + signal
 // when killed). Polls `cancel` and the timeout; either kills the child's process group.
+// The child leads its own process group (a terminal's Ctrl-C reaches only `airmass`, which
+// cancels and then kills that group: SIGTERM, SIGKILL 3 s later), and on Linux it is killed by
+// the kernel when `airmass` dies in any way, `kill -9` included (PR_SET_PDEATHSIG; it fires
+// when the forking thread ends, and this runs on the main thread, which lives until exit).
+// Processes Blender itself starts are not covered by the latter (they stay in the group).
 int run_process(const std::vector<std::string>& argv, const fs::path& log, double timeout_s, const CancelFlag& cancel,
                 bool& timed_out) {
     timed_out = false;
@@ -174,6 +182,7 @@ int run_process(const std::vector<std::string>& argv, const fs::path& log, doubl
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
+    const pid_t parent = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) {
         ::close(fd);
@@ -181,6 +190,13 @@ int run_process(const std::vector<std::string>& argv, const fs::path& log, doubl
     }
     if (pid == 0) {
         ::setpgid(0, 0);
+#if defined(__linux__)
+        // Die with the parent (kept across execvp). The parent may have died before the prctl:
+        // then this process was already re-parented, and goes now.
+        if (::prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || ::getppid() != parent) ::_exit(127);
+#else
+        (void)parent;
+#endif
         ::dup2(fd, 1);
         ::dup2(fd, 2);
         ::execvp(args[0], args.data());

@@ -76,13 +76,13 @@ def test_null_and_struct_size():
     st = lib.airmass_validate_scene(None, None, buf, 256)
     assert st == native.INVALID_ARGUMENT and b"NULL" in buf.value, (st, buf.value)
     spec = native.SceneSpec()
-    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    native._init_struct(lib.airmass_scene_spec_init, spec, "airmass_scene_spec")
     spec.struct_size = 8  # an older or newer host
     spec.preset = b"earth"
     st = lib.airmass_validate_scene(ctypes.byref(spec), None, buf, 256)
     assert st == native.INVALID_ARGUMENT and b"struct_size" in buf.value, (st, buf.value)
     # Both or neither source.
-    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    native._init_struct(lib.airmass_scene_spec_init, spec, "airmass_scene_spec")
     st = lib.airmass_validate_scene(ctypes.byref(spec), None, buf, 256)
     assert st == native.INVALID_ARGUMENT and b"exactly one" in buf.value, buf.value
     # No message buffer at all, and a 1-byte one: status only, no crash, NUL-terminated.
@@ -95,13 +95,13 @@ def test_null_and_struct_size():
     lib.airmass_validate_scene(None, None, one, 1)
     assert one.raw == b"\0"
     # Long calls with NULL options / buffer.
-    lib.airmass_scene_spec_init(ctypes.byref(spec))
+    native._init_struct(lib.airmass_scene_spec_init, spec, "airmass_scene_spec")
     spec.preset = b"earth"
     pixels = (ctypes.c_float * (64 * 32 * 4))()
     st = lib.airmass_render_sky(ctypes.byref(spec), None, pixels, 64 * 32 * 4, None, None, buf, 256)
     assert st == native.INVALID_ARGUMENT and b"sky_options" in buf.value, (st, buf.value)
     opts = native.SkyOptions()
-    lib.airmass_sky_options_init(ctypes.byref(opts))
+    native._init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
     st = lib.airmass_render_sky(ctypes.byref(spec), ctypes.byref(opts), None, 0, None, None, buf, 256)
     assert st == native.INVALID_ARGUMENT, st
     st = lib.airmass_sun_light_at_observer(ctypes.byref(spec), None, None, buf, 256)
@@ -229,7 +229,7 @@ def test_render_sky_buffer():
     # The raw call, the way a careless host would make it.
     spec, keep = s._to_c(lib)
     opts = native.SkyOptions()
-    lib.airmass_sky_options_init(ctypes.byref(opts))
+    native._init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
     opts.width, opts.height, opts.view_samples = 16, 8, 2
     buf = ctypes.create_string_buffer(512)
     good = 16 * 8 * 4

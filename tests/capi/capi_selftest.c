@@ -83,6 +83,8 @@ int main(int argc, char** argv) {
 
     /* ---- scene validation names the field ---- */
     airmass_scene_spec spec;
+    spec.struct_size = sizeof spec; /* ABI 4: the host sets it, init checks it */
+    spec.struct_size = sizeof spec;
     airmass_scene_spec_init(&spec);
     spec.preset = "earth";
     spec.planet_radius_m = -1.0;
@@ -92,6 +94,7 @@ int main(int argc, char** argv) {
         check(s == AIRMASS_SCENE_ERROR && contains(msg, "planet.radius_km"), "bad planet radius refused, field named",
               detail);
     }
+    spec.struct_size = sizeof spec;
     airmass_scene_spec_init(&spec);
     spec.preset = "earth";
     spec.struct_size -= 8;
@@ -99,6 +102,20 @@ int main(int argc, char** argv) {
         const int32_t s = airmass_validate_scene(&spec, NULL, msg, sizeof msg);
         check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "struct_size"), "stale struct_size refused", msg);
     }
+    {
+        /* ABI 4: *_init reads the host's struct_size and refuses (writing nothing) a wrong one. */
+        airmass_scene_spec stale;
+        memset(&stale, 0x5A, sizeof stale);
+        stale.struct_size = (uint32_t)sizeof stale - 8;
+        const int32_t s = airmass_scene_spec_init(&stale);
+        check(s == AIRMASS_INVALID_ARGUMENT && stale.struct_size == sizeof stale - 8 && stale.preset != NULL,
+              "scene_spec_init refuses a stale struct_size and writes nothing", "");
+        airmass_vdb_block block;
+        block.struct_size = sizeof block;
+        check(airmass_vdb_block_init(&block) == AIRMASS_OK && block.max[0] == -1 && airmass_vdb_block_init(NULL) != 0,
+              "vdb_block_init takes the right struct_size, refuses NULL", "");
+    }
+    spec.struct_size = sizeof spec;
     airmass_scene_spec_init(&spec);
     spec.preset = "no-such-preset";
     {
@@ -108,11 +125,13 @@ int main(int argc, char** argv) {
     }
 
     /* ---- the sky into a buffer ---- */
+    spec.struct_size = sizeof spec;
     airmass_scene_spec_init(&spec);
     spec.preset = "earth";
     spec.sun_elevation_deg = 20.0;
     spec.sun_rotation_deg = 0.0;
     airmass_sky_options opt;
+    opt.struct_size = sizeof opt;
     airmass_sky_options_init(&opt);
     opt.width = W;
     opt.height = H;

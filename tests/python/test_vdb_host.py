@@ -211,7 +211,7 @@ def test_c_abi_refuses_bad_block_requests_naming_the_field(library):
     c_spec, keep = spec._to_c(lib)
     c_opts, keep2 = native._vdb_options(lib, **opts)
     block = native.VdbBlock()
-    lib.airmass_vdb_block_init(ctypes.byref(block))
+    native._init_struct(lib.airmass_vdb_block_init, block, "airmass_vdb_block")
     assert block.struct_size == ctypes.sizeof(native.VdbBlock) and block.max[0] == -1
     name = g["name"].encode()
     block.grid = name

@@ -9,8 +9,10 @@
  *     "planet.radius_km = -1: must be in (0, 1e+06]".
  *   * Versioned: AIRMASS_C_ABI_VERSION changes whenever a declaration here changes
  *     incompatibly; a host checks airmass_abi_version() before any other call. Every
- *     struct starts with `struct_size` (the caller sets sizeof); the library refuses a
- *     size it does not know, so old hosts and new libraries never misread each other.
+ *     struct starts with `struct_size` (the caller sets sizeof, also before calling a
+ *     struct's *_init function); the library refuses a size it does not know, *_init
+ *     included (which then writes nothing), so old hosts and new libraries never misread
+ *     each other and a host's stale mirror of a struct (ctypes) is refused, not overwritten.
  *   * Units are SI as in the C++ API (plugin/include/airmass/scene.hpp): metres, degrees,
  *     m⁻¹; except VDB lengths, which are in the chosen length unit (km by default).
  *   * Strings returned by the library (`char** out`) are allocated by it and must be
@@ -40,11 +42,14 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 3  /* 2: airmass_sky_options.multiple_scattering
+#define AIRMASS_C_ABI_VERSION 4  /* 2: airmass_sky_options.multiple_scattering
                                     3: no files: the sky and the volume grids are returned as
                                        float buffers that the host writes (Blender's image API,
                                        its own OpenVDB module); airmass_write_sky_exr and
-                                       airmass_write_vdb are gone */
+                                       airmass_write_vdb are gone
+                                    4: the *_init functions return a status and read struct_size,
+                                       which the caller sets (they wrote it before): a size they
+                                       do not know is refused and the struct left untouched */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -116,7 +121,10 @@ typedef struct airmass_scene_spec {
     int32_t camera_width, camera_height;
 } airmass_scene_spec;
 
-AIRMASS_C_API void airmass_scene_spec_init(airmass_scene_spec* spec);
+/* Sets spec->struct_size first: spec.struct_size = sizeof spec; airmass_scene_spec_init(&spec).
+ * Every *_init function returns AIRMASS_OK, or AIRMASS_INVALID_ARGUMENT (and writes nothing) for
+ * NULL or a struct_size other than this library's sizeof. */
+AIRMASS_C_API int32_t airmass_scene_spec_init(airmass_scene_spec* spec);
 
 /* Parses, applies the overrides and validates. On success, and when `scene_json` is not
  * NULL, returns the resulting scene as JSON (scene_to_json) for the host's UI. */
@@ -157,7 +165,7 @@ typedef struct airmass_sky_options {
     int32_t multiple_scattering; /* 1 (default): add multiple scattering (docs/multiple_scattering.md) */
 } airmass_sky_options;
 
-AIRMASS_C_API void airmass_sky_options_init(airmass_sky_options* options);
+AIRMASS_C_API int32_t airmass_sky_options_init(airmass_sky_options* options); /* struct_size set first */
 
 /* Renders the sky into the caller's buffer `rgba`: options->width × height pixels (height 0:
  * width / 2), 4 floats each (linear Rec.709 R, G, B in the sky texture's units, A = 1), rows from
@@ -216,7 +224,7 @@ typedef struct airmass_vdb_options {
 
 /* Defaults: region "planet", unit "km", origin on the surface, automatic voxel size, default
  * tolerance and dense limit (NaN), automatic tiling. */
-AIRMASS_C_API void airmass_vdb_options_init(airmass_vdb_options* options);
+AIRMASS_C_API int32_t airmass_vdb_options_init(airmass_vdb_options* options); /* struct_size set first */
 
 /* The plan of the volume, as JSON in `*plan_json` (free with airmass_string_free). Runs the
  * sampling pass (a long call: progress and cancel through `job`, which may be NULL) and refuses,
@@ -257,7 +265,7 @@ typedef struct airmass_vdb_block {
 } airmass_vdb_block;
 
 /* grid NULL, an empty box (min 0, max −1), threads 0. */
-AIRMASS_C_API void airmass_vdb_block_init(airmass_vdb_block* block);
+AIRMASS_C_API int32_t airmass_vdb_block_init(airmass_vdb_block* block); /* struct_size set first */
 
 /* The densities of block->grid at every voxel of the box, into the caller's `values`
  * (`float_count` must be exactly nx·ny·nz, n = max − min + 1 per axis): values[(i·ny + j)·nz + k]
