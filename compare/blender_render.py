@@ -29,7 +29,10 @@ Settings that make the render comparable with the native image:
     (millimetre facets below the camera, tens of metres on the far side), exact sphere
     normals; the atmosphere's analytic domain: an icosphere just outside the top.
 
-Pure bpy + the standard library (numpy is used when present for the mesh).
+The atmosphere's material is the add-on's: airmass_blender/material.py (build_material, the
+builder of Create Atmosphere Volume), imported from the job's addon_dir or relative to this
+script (load_material_module) without registering the add-on. Otherwise pure bpy + the
+standard library (numpy is used when present for the mesh).
 """
 
 import json
@@ -41,7 +44,6 @@ import traceback
 
 import bpy
 
-PATHS = ("sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume")
 
 
 # ---- small helpers --------------------------------------------------------------------
@@ -341,313 +343,160 @@ def set_ground_lit(lit):
         node.inputs["Color"].default_value = (v, v, v, 1.0)
 
 
-# ---- volume shaders -----------------------------------------------------------------------------
+# ---- the volume material: the add-on's own builder (airmass_blender/material.py) -------------
+#
+# The comparison renders the material users get: airmass_blender.material.build_material,
+# the builder of Create Atmosphere Volume, with the same density source (the analytic altitude
+# profile or the VDB grid attribute) and the job's constituents (the library's analytic-density
+# JSON: coefficients and g_hg, the one phase → Henyey–Greenstein rule). Each render mode uses
+# the graph it needs and re-sets only its closures' constants (VolumeControl):
+#   rgb        — phase mixing SEPARATE as built: one Volume Scatter per constituent;
+#   rgb_dither — phase mixing DITHER as built (the add-on's default): one dithered Volume Scatter;
+#   split      — SEPARATE with stand-ins, grey per (channel, scatterer);
+#   ms closures / ms dither — SEPARATE / DITHER, grey per channel.
 
-class Nodes:
-    """A tiny helper to write node trees as expressions."""
-
-    def __init__(self, tree):
-        self.t = tree
-        self.n = tree.nodes
-        self.l = tree.links
-
-    def math(self, op, a, b=None, clamp=False):
-        node = self.n.new("ShaderNodeMath")
-        node.operation = op
-        node.use_clamp = clamp
-        for i, v in enumerate((a, b)):
-            if v is None:
-                continue
-            if isinstance(v, (int, float)):
-                node.inputs[i].default_value = float(v)
-            else:
-                self.l.new(v, node.inputs[i])
-        return node.outputs[0]
-
-    def vmath(self, op, a, b=None):
-        node = self.n.new("ShaderNodeVectorMath")
-        node.operation = op
-        for i, v in enumerate((a, b)):
-            if v is None:
-                continue
-            if isinstance(v, (tuple, list)):
-                node.inputs[i].default_value = v
-            else:
-                self.l.new(v, node.inputs[i])
-        return node.outputs["Value"] if op in ("LENGTH", "DOT_PRODUCT", "DISTANCE") else node.outputs["Vector"]
-
-
-def altitude_socket(nodes, center, radius):
-    """h = |p - c| - R, written without cancellation when c = (0, 0, -R): (x² + y² + z(z + 2R)) / (|p - c| + R)."""
-    geo = nodes.n.new("ShaderNodeNewGeometry")
-    p = geo.outputs["Position"]
-    rel = nodes.vmath("SUBTRACT", p, tuple(center))
-    dist = nodes.vmath("LENGTH", rel)
-    if abs(center[0]) < 1e-12 and abs(center[1]) < 1e-12 and abs(center[2] + radius) < 1e-9 * radius:
-        sep = nodes.n.new("ShaderNodeSeparateXYZ")
-        nodes.l.new(p, sep.inputs[0])
-        x, y, z = sep.outputs[0], sep.outputs[1], sep.outputs[2]
-        num = nodes.math("ADD", nodes.math("ADD", nodes.math("MULTIPLY", x, x), nodes.math("MULTIPLY", y, y)),
-                         nodes.math("MULTIPLY", z, nodes.math("ADD", z, 2.0 * radius)))
-        return nodes.math("DIVIDE", num, nodes.math("ADD", dist, radius))
-    return nodes.math("SUBTRACT", dist, radius)
-
-
-def profile_socket(nodes, h, profile, top_altitude):
-    """Relative density of a profile (the analytic JSON of docs/vdb.md) at altitude socket h."""
-    hc = nodes.math("MAXIMUM", h, 0.0)  # below the ground (inside the opaque planet): the ground value
-    kind = profile["type"]
-    if kind == "exponential":
-        arg = nodes.math("DIVIDE", nodes.math("SUBTRACT", profile["reference_altitude"], hc), profile["scale_height"])
-        rho = nodes.math("EXPONENT", arg)
-    elif kind == "tent":
-        b, k, t = profile["bottom"], profile["peak"], profile["top"]
-        up = nodes.math("DIVIDE", nodes.math("SUBTRACT", hc, b), k - b)
-        down = nodes.math("DIVIDE", nodes.math("SUBTRACT", t, hc), t - k)
-        rho = nodes.math("MAXIMUM", nodes.math("MINIMUM", up, down), 0.0)
-    elif kind == "piecewise_linear":
-        # r0 + Σ (r_{k+1} − r_k) · clamp((h − h_k)/(h_{k+1} − h_k), 0, 1), zero outside the knots.
-        knots = profile["knots"]
-        h0, hn = knots[0][0], knots[-1][0]
-        rho = nodes.math("ADD", nodes.math("MULTIPLY", hc, 0.0), knots[0][1])
-        for (ha, ra), (hb, rb) in zip(knots[:-1], knots[1:]):
-            if rb == ra:
-                continue
-            if hb > ha:
-                ramp = nodes.math("DIVIDE", nodes.math("SUBTRACT", hc, ha), hb - ha, clamp=True)
-            else:  # equal altitudes: a jump at ha
-                ramp = nodes.math("GREATER_THAN", hc, ha)
-            rho = nodes.math("ADD", rho, nodes.math("MULTIPLY", ramp, rb - ra))
-        inside = nodes.math("MULTIPLY", nodes.math("GREATER_THAN", hc, h0 - 1e-9),
-                            nodes.math("LESS_THAN", hc, hn + 1e-9))
-        rho = nodes.math("MULTIPLY", rho, inside)
-    elif kind == "constant":
-        b = profile["bottom"]
-        t = profile["top"] if profile.get("top") is not None else top_altitude
-        inside = nodes.math("MULTIPLY", nodes.math("GREATER_THAN", hc, b - 1e-9), nodes.math("LESS_THAN", hc, t))
-        rho = nodes.math("MULTIPLY", inside, profile["value"])
-    else:
-        raise RuntimeError("profile type %r is not supported by the comparison's node builder" % kind)
-    below_top = nodes.math("LESS_THAN", h, top_altitude)
-    return nodes.math("MULTIPLY", rho, below_top)
-
-
-CLOSURES = {}  # material name -> Closures, for the split renders
-
-
-class Closures:
-    """The closure nodes of the atmosphere's material, so one material serves every render.
-
-    Per constituent j: a Volume Scatter S_j (σs = colour × ρ_j, HG g_j), a Volume Absorption
-    A_j for its absorption (σa = (1 − colour) × k ρ_j, k = max σa_j so the colour stays in
-    [0, 1]) and a Volume Absorption X_j that can stand in for its scattering as extinction
-    only. A zero-weight closure is dropped by Cycles, so it costs nothing and adds no phase.
-
-      set_rgb():            S_j = σs_j (RGB), A_j = σa_j, X_j = 0 — the volume as users render it;
-      set_split(c, i):      S_i = σs_i,c (grey), S_j = 0 and X_j = σs_j,c for j ≠ i,
-                            A_j = σa_j,c — grey, one scattering closure, the full extinction.
-    Single scattering is additive over scatterers, so Σ_i split(c, i) is channel c of the image.
-
-    With multiple scattering (analytic_volume_ms) splitting by scatterer is wrong — light
-    scattered by one constituent is scattered again by the other — so each render holds the
-    whole medium at one channel, grey:
-      set_ms(c, False):     S_j = σs_j,c for every j, A_j = σa_j,c — one closure per scatterer,
-                            which Cycles 3.4 renders biased (the phase-summing bias, measured);
-      set_ms(c, True):      every S_j = 0; the single closure D = Volume Scatter of density
-                            Σ_j σs_j,c ρ_j whose anisotropy is g_j with probability
-                            σs_j,c ρ_j / Σ σs, picked by a White Noise texture of the shading
-                            position (a hash of the float bits: independent at every ray-marching
-                            point). In expectation the phase at each point is Σ_j σs_j p_j / σs,
-                            the mixture, with one closure: unbiased.
-      set_rgb_dither():     the chromatic volume with D alone for scattering (the render users
-                            would make with such a material): density Σ_j m_j ρ_j (m_j = max_c
-                            σs_j,c), g_j and colour σs_j / m_j with probability m_j ρ_j / Σ m ρ —
-                            per channel c the expected weight × phase is Σ_j σs_j,c ρ_j p_j.
-    """
-
-    def __init__(self):
-        self.scatter = {}   # name -> node
-        self.absorb = {}    # name -> (node, k)
-        self.stand_in = {}  # name -> (node, k)
-        self.constituents = {}
-        self.dither = None  # Dither: the single dithered Volume Scatter
-
-    def scatterers(self):
-        return [n for n in self.scatter]
-
-    @staticmethod
-    def _absorb(node, k, values):
-        node.inputs["Color"].default_value = tuple(1.0 - v / k for v in values) + (1.0,)
-
-    def _apply(self, scatter, stand_in, absorb, dither=None):
-        """Sets every closure: scatter(name, c) and stand_in(name, c) → RGB σ of constituent c's
-        Volume Scatter and of the Volume Absorption standing in for it, absorb(c) → its σa;
-        dither: Dither.set's (gain, weights, colours), or None to switch it off."""
-        for name, c in self.constituents.items():
-            if name in self.scatter:
-                self.scatter[name].inputs["Color"].default_value = tuple(scatter(name, c)) + (1.0,)
-                node, k = self.stand_in[name]
-                self._absorb(node, k, stand_in(name, c))
-            if name in self.absorb:
-                node, k = self.absorb[name]
-                self._absorb(node, k, absorb(c))
-        if dither is not None and not self.dither:
-            raise RuntimeError("the material has no dithered scattering closure")
-        if self.dither:
-            self.dither.set(*(dither or (0.0, {}, {})))
-
-    def set_rgb(self):
-        self._apply(lambda n, c: c["scattering_rgb"], _black, lambda c: c["absorption_rgb"])
-
-    def set_split(self, channel, scatterer):
-        def grey(v):
-            return (v,) * 3
-
-        self._apply(lambda n, c: grey(c["scattering_rgb"][channel]) if n == scatterer else _black(),
-                    lambda n, c: _black() if n == scatterer else grey(c["scattering_rgb"][channel]),
-                    lambda c: grey(c["absorption_rgb"][channel]))
-
-    def set_ms(self, channel, dither):
-        """Grey, the whole medium at `channel`: one closure per scatterer, or the dithered one."""
-        weights = {n: float(c["scattering_rgb"][channel]) for n, c in self.constituents.items() if n in self.scatter}
-        self._apply(lambda n, c: _black() if dither else (c["scattering_rgb"][channel],) * 3, _black,
-                    lambda c: (c["absorption_rgb"][channel],) * 3, (1.0, weights, {}) if dither else None)
-
-    def set_rgb_dither(self):
-        m = {n: max(c["scattering_rgb"]) for n, c in self.constituents.items() if n in self.scatter}
-        colours = {n: tuple(v / m[n] for v in self.constituents[n]["scattering_rgb"]) for n in m}
-        self._apply(_black, _black, lambda c: c["absorption_rgb"], (1.0, m, colours))
-
-
-def _black(*_):
-    return (0.0, 0.0, 0.0)
-
-
-class Dither:
-    """One Volume Scatter standing for several scatterers (Closures): density gain · Σ_j w_j ρ_j;
-    where u · Σ w ρ (u = White Noise of the position) falls in scatterer j's share, anisotropy
-    g_j and colour k_j. set(gain, {name: w_j}, {name: k_j}); colours not given are white."""
-
-    def __init__(self, nodes, scatterers):
-        self.weights, self.colours = {}, {}
-        d = []
-        for c, rho in scatterers:
-            w = nodes.n.new("ShaderNodeMath")
-            w.operation = "MULTIPLY"
-            nodes.l.new(rho, w.inputs[0])
-            w.inputs[1].default_value = 0.0
-            self.weights[c["name"]] = w
-            d.append(w.outputs[0])
-            self.colours[c["name"]] = nodes.n.new("ShaderNodeRGB")
-        total = d[0]
-        for x in d[1:]:
-            total = nodes.math("ADD", total, x)
-        noise = nodes.n.new("ShaderNodeTexWhiteNoise")
-        noise.noise_dimensions = "3D"
-        nodes.l.new(nodes.n.new("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
-        u_total = nodes.math("MULTIPLY", noise.outputs["Value"], total)
-        g = float(scatterers[0][0]["g_hg"])  # a constant until the first choice below adds to it
-        colour = self.colours[scatterers[0][0]["name"]].outputs[0]
-        cum = d[0]
-        for j in range(1, len(scatterers)):
-            chosen = nodes.math("GREATER_THAN", u_total, cum)  # scatterer j or a later one
-            step = float(scatterers[j][0]["g_hg"]) - float(scatterers[j - 1][0]["g_hg"])
-            g = nodes.math("ADD", g, nodes.math("MULTIPLY", chosen, step))
-            mix = nodes.n.new("ShaderNodeMixRGB")
-            mix.blend_type = "MIX"
-            nodes.l.new(chosen, mix.inputs["Fac"])
-            nodes.l.new(colour, mix.inputs["Color1"])
-            nodes.l.new(self.colours[scatterers[j][0]["name"]].outputs[0], mix.inputs["Color2"])
-            colour = mix.outputs["Color"]
-            cum = nodes.math("ADD", cum, d[j])
-        self.gain = nodes.n.new("ShaderNodeMath")
-        self.gain.operation = "MULTIPLY"
-        nodes.l.new(total, self.gain.inputs[0])
-        self.scatter = nodes.n.new("ShaderNodeVolumeScatter")
-        nodes.l.new(colour, self.scatter.inputs["Color"])
-        nodes.l.new(self.gain.outputs[0], self.scatter.inputs["Density"])
-        if isinstance(g, float):  # a single scatterer
-            self.scatter.inputs["Anisotropy"].default_value = g
-        else:
-            nodes.l.new(g, self.scatter.inputs["Anisotropy"])
-        self.set(0.0, {}, {})
-
-    def set(self, gain, weights, colours):
-        self.gain.inputs[1].default_value = float(gain)
-        for name, node in self.weights.items():
-            node.inputs[1].default_value = float(weights.get(name, 0.0))
-        for name, node in self.colours.items():
-            node.outputs[0].default_value = tuple(colours.get(name, (1.0, 1.0, 1.0))) + (1.0,)
-
-
-def volume_closures(nodes, constituent, density, closures):
+def material_module_candidates(job, here=None):
+    """Folders that may hold the airmass_blender package: the job's addon_dir (the CLI's
+    --addon), then relative to this script's folder `here` — the installed zip
+    (<addons>/airmass_blender/compare_scripts/) and the source tree (compare/ beside addon/)."""
+    here = os.path.dirname(os.path.abspath(__file__)) if here is None else here
     out = []
-    name = constituent["name"]
-    closures.constituents[name] = constituent
-    s = constituent["scattering_rgb"]
-    a = constituent["absorption_rgb"]
-    if max(s) > 0.0:
-        sc = nodes.n.new("ShaderNodeVolumeScatter")
-        nodes.l.new(density, sc.inputs["Density"])
-        sc.inputs["Anisotropy"].default_value = float(constituent["g_hg"])
-        closures.scatter[name] = sc
-        out.append(sc.outputs[0])
-        k = max(s)
-        x = nodes.n.new("ShaderNodeVolumeAbsorption")
-        nodes.l.new(nodes.math("MULTIPLY", density, k), x.inputs["Density"])
-        closures.stand_in[name] = (x, k)
-        out.append(x.outputs[0])
-    if max(a) > 0.0:
-        k = max(a)
-        ab = nodes.n.new("ShaderNodeVolumeAbsorption")
-        nodes.l.new(nodes.math("MULTIPLY", density, k), ab.inputs["Density"])
-        closures.absorb[name] = (ab, k)
-        out.append(ab.outputs[0])
+    if job.get("addon_dir"):
+        out.append(job["addon_dir"])
+    if os.path.basename(here) == "compare_scripts":
+        out.append(os.path.dirname(os.path.dirname(here)))
+    out.append(os.path.join(os.path.dirname(here), "addon"))
     return out
 
 
-def needs_dither(job, path):
-    """Whether a mode of `path` renders the dithered Volume Scatter: its nodes would cost shader
-    time at every ray-marching step of the other renders too."""
-    if path == "analytic_volume_ms":
-        return "dither" in job["multiple"]["modes"]
-    return "rgb_dither" in job.get("volume_modes", [])
+def load_material_module(job):
+    """airmass_blender.material without importing the add-on's __init__ (which needs the native
+    library and registers properties): the package is entered as a bare namespace module when
+    it is not imported yet. Returns (module, file)."""
+    import importlib
+    import types
+
+    tried = []
+    pkg = sys.modules.get("airmass_blender")
+    if pkg is None:
+        for parent in material_module_candidates(job):
+            folder = os.path.join(parent, "airmass_blender")
+            tried.append(folder)
+            if os.path.isfile(os.path.join(folder, "material.py")):
+                pkg = types.ModuleType("airmass_blender")
+                pkg.__path__ = [folder]
+                pkg.__file__ = os.path.join(folder, "__init__.py")
+                sys.modules["airmass_blender"] = pkg
+                break
+    if pkg is None:
+        raise RuntimeError("cannot find the add-on's material builder airmass_blender/material.py; tried %s "
+                           "(pass --addon DIR to airmass compare)" % ", ".join(tried))
+    module = importlib.import_module("airmass_blender.material")
+    return module, module.__file__
 
 
-def volume_material(name, job, density_of, dither):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
-    nodes = Nodes(nt)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    shaders = []
-    closures = Closures()
-    scatterers = []
-    for c in job["constituents"]:
-        rho = density_of(nodes, c)
-        shaders += volume_closures(nodes, c, rho, closures)
-        if max(c["scattering_rgb"]) > 0.0:
-            scatterers.append((c, rho))
-    if not shaders:
-        raise RuntimeError("no constituent scatters or absorbs: nothing to render")
-    if dither and scatterers:
-        closures.dither = Dither(nodes, scatterers)
-        shaders.append(closures.dither.scatter.outputs[0])
-    closures.set_rgb()
-    acc = shaders[0]
-    for sh in shaders[1:]:
-        add = nt.nodes.new("ShaderNodeAddShader")
-        nt.links.new(acc, add.inputs[0])
-        nt.links.new(sh, add.inputs[1])
-        acc = add.outputs[0]
-    nt.links.new(acc, out.inputs["Volume"])
-    mat.cycles.homogeneous_volume = False
-    set_enum(mat.cycles, "volume_interpolation", "LINEAR")
-    set_enum(mat.cycles, "volume_sampling", "DISTANCE")
-    CLOSURES[mat.name] = closures
-    return mat
+MATERIAL = None  # the airmass_blender.material module (main)
+
+
+def _grey(v):
+    return (float(v),) * 3 + (1.0,)
+
+
+class VolumeControl:
+    """The atmosphere objects and, per render mode, the material built by the add-on's builder;
+    sets the constants of its named closures (material.py lists the names) for each render.
+
+    Per constituent j of σs_j, σa_j (RGB): "<j> scatter" (Colour × "<j> scatter density"'s
+    factor = σs), "<j> absorption" (σa = (1 − Colour) × factor), "<j> stand-in" (split only: its
+    scattering as extinction), or in the dithered graph "<j> scatter weight"/"<j> scatter
+    colour" feeding "scatter (dithered)". A zero-weight closure is dropped by Cycles.
+
+      rgb, rgb_dither:  as built — the volume as users render it;
+      split(c, i):      S_i = σs_i,c (grey), S_j = 0 and stand-in X_j = σs_j,c for j ≠ i,
+                        A_j = σa_j,c — grey, one scattering closure, the full extinction. Single
+                        scattering is additive over scatterers: Σ_i split(c, i) is channel c;
+      ms(c, closures):  S_j = σs_j,c for every j, A_j = σa_j,c — one closure per scatterer, which
+                        Cycles 3.4 renders biased (the phase-summing bias, measured);
+      ms(c, dither):    the dithered closure with weights σs_j,c and white colours: the phase at
+                        each point is Σ_j σs_j p_j / σs in expectation, with one closure.
+    """
+
+    GRAPHS = {"rgb": ("SEPARATE", False), "rgb_dither": ("DITHER", False), "split": ("SEPARATE", True),
+              "closures": ("SEPARATE", False), "dither": ("DITHER", False)}
+
+    def __init__(self, job, density_for, name):
+        self.job = job
+        self.density_for = density_for
+        self.name = name
+        self.constituents = {c["name"]: c for c in job["constituents"]}
+        self.scatterers = sorted(n for n, c in self.constituents.items() if max(c["scattering_rgb"]) > 0.0)
+        self.objects = []  # (id with .materials), e.g. a Mesh or a Volume
+        self.materials = {}
+        self.current = None
+
+    def material(self, mode):
+        """The material of a mode, built once (material.build_material)."""
+        if mode not in self.materials:
+            mixing, stand_ins = self.GRAPHS[mode]
+            mat = MATERIAL.build_material("%s %s" % (self.name, mode), self.job["constituents"], self.density_for,
+                                          phase_mixing=mixing, stand_ins=stand_ins)
+            # Sampling, not the graph: distance sampling as in every comparison so far.
+            set_enum(mat.cycles, "volume_interpolation", "LINEAR")
+            set_enum(mat.cycles, "volume_sampling", "DISTANCE")
+            self.materials[mode] = mat
+        return self.materials[mode]
+
+    def use(self, mode):
+        mat = self.material(mode)
+        for data in self.objects:
+            if len(data.materials) == 0:
+                data.materials.append(mat)
+            else:
+                data.materials[0] = mat
+        self.current = mat
+        return mat
+
+    def dithered(self, mode):
+        return "scatter (dithered)" in self.material(mode).node_tree.nodes
+
+    # -- setting closures ----------------------------------------------------------------------
+    def _nodes(self):
+        return self.current.node_tree.nodes
+
+    def _closure(self, kind, name, sigma, absorb):
+        """Closure "<name> <kind>" to the grey coefficient sigma: colour white (scatter) or black
+        (absorption) and its density factor sigma."""
+        nodes = self._nodes()
+        node = nodes.get("%s %s" % (name, kind))
+        if node is None:
+            if sigma > 0.0:
+                raise RuntimeError("the material has no closure '%s %s'" % (name, kind))
+            return
+        node.inputs["Color"].default_value = _grey(0.0 if absorb else 1.0)
+        nodes["%s %s density" % (name, kind)].inputs[1].default_value = float(sigma)
+
+    def set_split(self, channel, scatterer):
+        for name, c in self.constituents.items():
+            s = float(c["scattering_rgb"][channel])
+            if name in self.scatterers:
+                self._closure("scatter", name, s if name == scatterer else 0.0, False)
+                self._closure("stand-in", name, 0.0 if name == scatterer else s, True)
+            self._closure("absorption", name, float(c["absorption_rgb"][channel]), True)
+
+    def set_ms(self, channel, dither):
+        nodes = self._nodes()
+        for name, c in self.constituents.items():
+            s = float(c["scattering_rgb"][channel])
+            if dither:
+                if name in self.scatterers:
+                    nodes["%s scatter weight" % name].inputs[1].default_value = s
+                    nodes["%s scatter colour" % name].outputs[0].default_value = _grey(1.0)
+            else:
+                self._closure("scatter", name, s, False)
+            self._closure("absorption", name, float(c["absorption_rgb"][channel]), True)
+
+
+VOLUME = []  # the VolumeControl of the scene (main)
 
 
 def set_step(scene, mat, base_step_km, want_step_km, max_steps):
@@ -662,23 +511,32 @@ def set_step(scene, mat, base_step_km, want_step_km, max_steps):
     return base_step_km * mat_rate * scene_rate
 
 
+def volume_modes(job, path):
+    if path == "analytic_volume_ms":
+        return list(job["multiple"].get("modes", ["dither", "closures"]))
+    return list(job.get("volume_modes", ["split", "rgb"]))
+
+
 def make_analytic_volume(scene, job, path):
     planet = job["planet"]
     R, top = float(planet["radius"]), float(planet["top"])
-    top_alt = top - R
     margin = float(job["volume"].get("domain_margin_km", 5.0))
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=top + margin, location=tuple(planet["center"]))
+    # At the world origin, its mesh around the planet centre: the builder's Texture Coordinate
+    # "Object" is then the world point, as in the add-on.
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5, radius=top + margin, location=(0.0, 0.0, 0.0))
     obj = bpy.context.object
     obj.name = "AirmassAtmosphere"
+    from mathutils import Matrix
 
-    def density_of(nodes, c):
-        h = altitude_socket(nodes, planet["center"], R)
-        return profile_socket(nodes, h, c["profile"], top_alt)
-
-    mat = volume_material("AirmassAtmosphereAnalytic", job, density_of, needs_dither(job, path))
-    obj.data.materials.append(mat)
+    obj.data.transform(Matrix.Translation(tuple(planet["center"])))
+    control = VolumeControl(job, MATERIAL.analytic_density(planet["center"], R, top - R, job["constituents"]),
+                            "AirmassAtmosphereAnalytic")
+    control.objects.append(obj.data)
     base = 0.1 * 2.0 * (top + margin)  # 0.1 × mean bounding-box size
-    step = set_step(scene, mat, base, float(job["volume"]["step_km"]), job["volume"]["max_steps"])
+    step = None
+    for mode in volume_modes(job, path):
+        step = set_step(scene, control.material(mode), base, float(job["volume"]["step_km"]), job["volume"]["max_steps"])
+    VOLUME.append(control)
     return obj, {"step_km": step, "base_step_km": base, "domain_radius_km": top + margin}
 
 
@@ -686,16 +544,9 @@ def make_vdb_volume(scene, job):
     vdb = job["vdb"]
     files = vdb["files"]
     vs = float(vdb["voxel_size"])
-    objs = []
     half_voxel = bpy.app.version < (5, 0, 0) and vdb.get("half_voxel_correction", True)
-
-    def density_of(nodes, c):
-        attr = nodes.n.new("ShaderNodeAttribute")
-        attr.attribute_type = "GEOMETRY"
-        attr.attribute_name = c["name"]
-        return attr.outputs["Fac"]
-
-    mat = volume_material("AirmassAtmosphereVDB", job, density_of, needs_dither(job, "vdb_volume"))
+    control = VolumeControl(job, MATERIAL.grid_density(), "AirmassAtmosphereVDB")
+    objs = []
     for i, f in enumerate(files):
         vol = bpy.data.volumes.new("AirmassVDB%d" % i)
         vol.filepath = f
@@ -709,39 +560,25 @@ def make_vdb_volume(scene, job):
             # Blender < 5.0 puts voxel (i, j, k)'s value at the voxel centre, (i + ½) · size,
             # where OpenVDB (and the exporter) mean i · size: move the object back by half a voxel.
             obj.location = (-0.5 * vs, -0.5 * vs, -0.5 * vs)
-        vol.materials.append(mat)
+        control.objects.append(vol)
         vol.grids.load()
         names = [g.name for g in vol.grids]
         missing = [c["name"] for c in job["constituents"] if c["name"] not in names]
         if missing:
             raise RuntimeError("%s: grids %s missing (has %s)" % (f, missing, names))
         objs.append(obj)
-    step = set_step(scene, mat, vs, float(job["volume"].get("vdb_step_km", vs)), job["volume"]["max_steps"])
+    step = None
+    for mode in volume_modes(job, "vdb_volume"):
+        step = set_step(scene, control.material(mode), vs, float(job["volume"].get("vdb_step_km", vs)),
+                        job["volume"]["max_steps"])
+    VOLUME.append(control)
     return objs, {"step_km": step, "voxel_size_km": vs, "half_voxel_correction": bool(half_voxel)}
 
 
-def try_addon(job, path):
-    """The add-on's builders, when it is importable and offers them; else None and why."""
-    addon_dir = job.get("addon_dir")
-    if not addon_dir or job.get("use_addon", "auto") == "never":
-        return None, "add-on use disabled by the job"
-    if addon_dir not in sys.path:
-        sys.path.insert(0, addon_dir)
-    try:
-        import airmass_blender  # noqa: F401
-    except Exception as e:  # noqa: BLE001
-        return None, "add-on package airmass_blender not importable from %s (%s)" % (addon_dir, e)
-    try:
-        from airmass_blender import compare as hook
-    except Exception as e:  # noqa: BLE001
-        return None, "airmass_blender.compare not importable (%s)" % e
-    builder = getattr(hook, "build_volume_for_compare", None)
-    if builder is None:
-        return None, "airmass_blender.compare has no build_volume_for_compare(scene, job, path)"
-    return builder, "add-on builder airmass_blender.compare.build_volume_for_compare"
-
-
 # ---- main --------------------------------------------------------------------------------------------
+
+RENDERS = [0]  # renders made (checked against the job's plan)
+
 
 def render_to(scene, out_dir, name):
     """One render to out_dir/name, atomically; returns the render seconds."""
@@ -754,6 +591,7 @@ def render_to(scene, out_dir, name):
     if not os.path.isfile(tmp):
         raise RuntimeError("Blender did not write %s" % tmp)
     os.replace(tmp, final)
+    RENDERS[0] += 1
     log("%s: %.2f s" % (name, seconds))
     return seconds
 
@@ -782,38 +620,38 @@ def render_seeds(scene, job, path, out_dir, sun_obj):
             scene.cycles.seed = base + k
             times["rgb"].append(render_to(scene, out_dir, "blender_%s_seed%d.exr" % (path, k)))
         return times
-    closures = list(CLOSURES.values())
+    control = VOLUME[0]
     sun = sun_obj.data
     e = job["sun"]["irradiance_rgb"]
-    scatterers = sorted({n for c in closures for n in c.scatterers()})
+    scatterers = control.scatterers
     if path == "analytic_volume_ms":
         # Multiple scattering: per channel c one grey render of the whole medium at c, white
         # lamp of E_c, the ground lit (it reflects sun- and skylight back into the medium).
         set_ground_lit(True)
         sun.color = (1.0, 1.0, 1.0)
-        for mode in job["multiple"].get("modes", ["dither", "closures"]):
+        for mode in volume_modes(job, path):
+            control.use(mode)
+            if mode == "dither" and not control.dithered(mode):
+                raise RuntimeError("the add-on's DITHER material has no dithered Volume Scatter in this Blender "
+                                   "(its own phase types): use --ms-modes closures")
             times[mode] = []
             for k in range(seeds):
                 scene.cycles.seed = base + k
                 t = 0.0
                 for ch in range(3):
-                    for c in closures:
-                        c.set_ms(ch, mode == "dither")
+                    control.set_ms(ch, mode == "dither")
                     sun.energy = float(e[ch])
                     sun_obj.hide_render = sun.energy <= 0.0
                     t += render_to(scene, out_dir, "blender_%s_%s_seed%d_c%d.exr" % (path, mode, k, ch))
                 times[mode].append(t)
         return times
-    for mode in job.get("volume_modes", ["split", "rgb"]):
+    for mode in volume_modes(job, path):
+        control.use(mode)
         times[mode] = []
         for k in range(seeds):
             scene.cycles.seed = base + k
             if mode in ("rgb", "rgb_dither"):
-                for c in closures:
-                    if mode == "rgb":
-                        c.set_rgb()
-                    else:
-                        c.set_rgb_dither()
+                # As built: the material users render.
                 set_ground_lit(True)
                 sun.color = tuple(job["sun"]["color"])
                 sun.energy = float(job["sun"]["strength"])
@@ -823,8 +661,7 @@ def render_seeds(scene, job, path, out_dir, sun_obj):
                 t = 0.0
                 for ch in range(3):
                     for i, name in enumerate(scatterers):
-                        for c in closures:
-                            c.set_split(ch, name)
+                        control.set_split(ch, name)
                         # The sunlit ground belongs to the image once: lit in the first render,
                         # black (still opaque, still shadowing) in the others.
                         set_ground_lit(i == 0)
@@ -837,11 +674,16 @@ def render_seeds(scene, job, path, out_dir, sun_obj):
 
 
 def main(argv):
-    if len(argv) != 2 or argv[1] not in PATHS:
-        raise SystemExit("usage: blender -b --python blender_render.py -- JOB.json {%s}" % "|".join(PATHS))
+    global MATERIAL
+    if len(argv) != 2:
+        raise SystemExit("usage: blender -b --python blender_render.py -- JOB.json PATH")
     job_path, path = argv
     with open(job_path) as f:
         job = json.load(f)
+    paths = [p["name"] for p in job["plan"]["all_paths"]]  # cmd_compare.cpp's one list
+    if path not in paths:
+        raise SystemExit("blender_render.py: unknown path %r (the job's paths: %s)" % (path, "|".join(paths)))
+    planned = job["plan"]["blender_renders"].get(path)
     out_dir = os.path.dirname(os.path.abspath(job_path))
     info = {"path": path, "blender_version": blender_version(), "notes": [], "build": {}}
     sun_obj = None
@@ -857,33 +699,26 @@ def main(argv):
         sun_obj = make_sun(scene, job["sun"])
         _, nv, nf = make_planet(scene, job["planet"], job["planet"]["nadir"], job.get("ground", {}))
         info["build"]["planet_mesh"] = {"vertices": nv, "faces": nf}
-        builder, why = try_addon(job, path)
-        used_addon = False
-        if builder is not None:
-            try:
-                info["build"]["volume"] = builder(scene, job, path)
-                used_addon = True
-            except Exception as e:  # noqa: BLE001
-                why = "add-on builder failed: %s" % e
-                info["notes"].append(why)
-        if used_addon and not CLOSURES:
-            if path == "analytic_volume_ms":
-                raise RuntimeError("the add-on's material exposes no closures: the grey per-channel renders of "
-                                   "multiple scattering cannot be made")
-            info["notes"].append("the add-on's material exposes no closures: only the rgb mode is rendered")
-            job["volume_modes"] = ["rgb"]
-        if not used_addon:
-            info["notes"].append("volume built by compare/blender_render.py itself (%s)" % why)
-            if path in ("analytic_volume", "analytic_volume_ms"):
-                _, b = make_analytic_volume(scene, job, path)
-            else:
-                _, b = make_vdb_volume(scene, job)
-            info["build"]["volume"] = b
-        info["build"]["used_addon"] = used_addon
+        MATERIAL, material_file = load_material_module(job)
+        info["build"]["material_builder"] = material_file
+        if path in ("analytic_volume", "analytic_volume_ms"):
+            _, b = make_analytic_volume(scene, job, path)
+        else:
+            _, b = make_vdb_volume(scene, job)
+        info["build"]["volume"] = b
+        # The Henyey–Greenstein g each graph gives Cycles (the one rule; tests compare it with
+        # the job's g_hg and the native renderer-matched image).
+        info["build"]["anisotropy"] = {n: MATERIAL.constituent_hg_g(c) for n, c in VOLUME[0].constituents.items()
+                                       if n in VOLUME[0].scatterers}
     info["build_seconds"] = time.perf_counter() - t_start
     info["render_seconds"] = render_seeds(scene, job, path, out_dir, sun_obj)
+    made = RENDERS[0]
+    if planned is not None and made != planned:
+        raise RuntimeError("made %d renders where the job's plan says %d (cmd_compare.cpp planned_blender_renders "
+                           "and render_seeds disagree)" % (made, planned))
+    info["renders"] = made
     info["modes"] = list(info["render_seconds"].keys())
-    info["scatterers"] = sorted({n for c in CLOSURES.values() for n in c.scatterers()})
+    info["scatterers"] = VOLUME[0].scatterers if VOLUME else []
     info["samples"] = int(job["samples"][path])
     info["seeds"] = int(job["seeds"][path])
     info["cycles"] = {

@@ -39,15 +39,14 @@ import traceback
 
 import numpy as np
 
-PATHS = ("sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume")
-REFERENCE = {"sky_texture": "native_physical_box", "analytic_volume": "native_matched",
-             "analytic_volume_ms": "native_matched_ms", "vdb_volume": "native_matched_box"}
-TITLES = {
-    "sky_texture": "Sky texture as World background",
-    "analytic_volume": "Analytic (node-tree) volume lit by a Sun lamp",
-    "analytic_volume_ms": "Analytic volume with multiple scattering (Cycles volume and diffuse bounces)",
-    "vdb_volume": "VDB volume lit by a Sun lamp",
-}
+
+
+def path_table(job):
+    """{path: {"reference": native image, "title": ...}}: the comparison paths as the job's plan
+    carries them (cmd_compare.cpp's kPathTable, the one list)."""
+    return {p["name"]: p for p in job["plan"]["all_paths"]}
+
+
 FLOOR = 1e-3
 FIGURES = ("native", "blender", "error", "side_by_side")  # png/<path>_<figure>.png
 BACKEND_LINE = "Made by report.py"  # the only line of report.md that depends on the backends
@@ -507,15 +506,16 @@ def analyse(d, job):
     summary["native_gaps"] = {k: v for k, v in gaps.items() if v is not None}
 
     images = {}
-    for path in job.get("paths_requested", PATHS):
-        entry = {}
+    table = path_table(job)
+    for path in job["plan"]["paths"]:
+        entry = {"title": table[path]["title"]}
         summary["paths"][path] = entry
         err = job.get("errors", {}).get(path)
         if err:
             entry["error"] = err
             continue
         try:
-            ref_name = REFERENCE[path]
+            ref_name = table[path]["reference"]
             if ref_name not in natives:
                 raise RuntimeError("native reference %s missing: %s" % (
                     ref_name, summary.get("native_errors", {}).get(ref_name, "not rendered")))
@@ -594,7 +594,7 @@ def analyse(d, job):
                 panels.append(("native, single scattering only (native_matched)", tone_map(natives["native_matched"], k)))
             elif path != "sky_texture" and "native_physical" in natives:
                 panels.append(("native physical (scene phases, spectral)", tone_map(natives["native_physical"], k)))
-            side_by_side(os.path.join(pngdir, "%s_side_by_side.png" % path), panels, TITLES[path])
+            side_by_side(os.path.join(pngdir, "%s_side_by_side.png" % path), panels, table[path]["title"])
             images[path] = {"panels": [name for name, _ in panels], "error_limit": lim}
         except Exception as ex:  # noqa: BLE001
             entry.clear()
@@ -673,7 +673,7 @@ def markdown(job, summary, images):
                                                          fmt_pct(r["bias_beyond_noise"])))
     add("")
     for path, e in summary["paths"].items():
-        add("## %s — %s" % (path, TITLES.get(path, path)))
+        add("## %s — %s" % (path, e.get("title", path)))
         add("")
         if "error" in e:
             add("**This path could not run:**")

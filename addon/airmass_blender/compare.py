@@ -10,7 +10,8 @@ module
      back as the same scene;
   2. runs `airmass compare SCENE -o TMP --blender <this Blender> --scripts <zip>/compare_scripts
      --addon <folder holding airmass_blender> ...` as a subprocess into a fresh temporary
-     folder beside the result, reading its progress lines (stderr) and the Blender logs. This
+     folder beside the result, reading its progress events (--progress-json, JSON lines) and
+     the Blender logs. This
      Blender (bpy.app.binary_path) does everything the CLI does not do natively: the renders
      and the report (report.py in this Blender's own Python, numpy and bpy's image API), so no
      system Python is needed; the add-on never passes --python;
@@ -39,7 +40,6 @@ import json
 import math
 import os
 import queue
-import re
 import shutil
 import signal
 import subprocess
@@ -250,82 +250,100 @@ def camera_for_cli(scene, cam, unit_m, width, max_distance_km):
             "max_distance_km": float(max_distance_km)}
 
 
-# ---- progress from the CLI's output -------------------------------------------------------------
+# ---- progress from the CLI's events -------------------------------------------------------------
+
+PROGRESS_FILE = "progress.jsonl"  # the CLI's --progress-json, in the work folder
+
 
 class _Progress:
-    """Turns the CLI's progress lines and the Blender logs into a fraction and a status."""
+    """Turns the CLI's progress events (--progress-json: JSON lines, docs/compare.md) into a
+    fraction and a status. The CLI announces every step with its index and the total, and each
+    Blender path with the number of Cycles renders it makes; within a Blender step the renders
+    done are the lines blender_render.py logs per written image."""
 
-    def __init__(self, work_dir, paths, native_renders):
+    # Relative cost of a step, by kind (a Blender volume path is the slow part).
+    @staticmethod
+    def _weight(step, path):
+        if step.startswith("blender "):
+            return 4.0 if path == "sky_texture" else 10.0
+        return {"sky_texture_input": 2.0, "report": 2.0}.get(step, 1.0)
+
+    def __init__(self, work_dir):
         self.work_dir = work_dir
-        self.weights = {"native": native_renders, "sky": 2 if "sky_texture" in paths else 0,
-                        "vdb": 1 if "vdb_volume" in paths else 0, "report": 2}
-        self.blender_weight = {p: (4 if p == "sky_texture" else 10) for p in paths}
-        self.total = float(sum(self.weights.values()) + sum(self.blender_weight.values()))
-        self.done = 0.0
-        self.current = None  # the Blender path running
-        self.expected = {}
+        self.file = os.path.join(work_dir, PROGRESS_FILE)
+        self.offset = 0
+        self.pending = ""
+        self.steps = {}  # index -> weight of the steps seen (the others count 1 until announced)
+        self.total_steps = None
+        self.done = 0.0  # the weight of the finished steps
+        self.current = None  # (step, path, index, weight, renders, of)
         self.status = "native renders"
+        self.finished = False
+        self.errors = []
 
-    def line(self, text):
-        m = re.match(r"compare: (.*)$", text.strip())
-        if not m:
+    def poll(self):
+        """Reads the events written since the last call."""
+        try:
+            with open(self.file, "rb") as f:
+                f.seek(self.offset)
+                data = f.read()
+        except OSError:
             return
-        msg = m.group(1)
-        if msg.startswith("native "):
-            self.done += 1
-            self.status = msg.split(":")[0]
-        elif msg.startswith("sky texture "):
-            self.done += self.weights["sky"]
-            self.status = "sky texture"
-        elif msg.startswith("vdb:"):
-            self.done += self.weights["vdb"]
-            self.status = "VDB export"
-        elif msg.startswith("blender "):
-            rest = msg[len("blender "):]
-            path = rest.split(" ")[0].rstrip(":")
-            if rest.endswith("..."):
-                self.current = path
-                self.status = "Blender: %s" % path
-            elif path in self.blender_weight:
-                self.done += self.blender_weight[path]
-                self.current = None
-                self.status = "report"
-        elif msg.startswith("wrote "):
-            self.done = self.total
+        self.offset += len(data)
+        text = self.pending + data.decode("utf-8", "replace")
+        lines = text.split("\n")
+        self.pending = lines.pop()  # an incomplete last line waits for the next poll
+        for ln in lines:
+            if ln.strip():
+                try:
+                    self.event(json.loads(ln))
+                except ValueError:
+                    pass
 
-    def _renders_expected(self, path):
-        if path not in self.expected:
-            try:
-                with open(os.path.join(self.work_dir, "job.json")) as f:
-                    job = json.load(f)
-                seeds = int(job["seeds"][path])
-                if path == "sky_texture":
-                    n = seeds
-                elif path == "analytic_volume_ms":  # a grey render per channel and mode
-                    n = seeds * 3 * len(job.get("multiple", {}).get("modes", ["dither", "closures"]))
-                else:
-                    scatterers = sum(1 for c in job.get("constituents", []) if max(c["scattering_rgb"]) > 0)
-                    modes = job.get("volume_modes", ["split", "rgb"])
-                    n = seeds * ((3 * scatterers if "split" in modes else 0) + (1 if "rgb" in modes else 0) +
-                                 (1 if "rgb_dither" in modes else 0))
-                self.expected[path] = max(1, n)
-            except (OSError, ValueError, KeyError):
-                return None
-        return self.expected[path]
+    def event(self, e):
+        kind = e.get("event")
+        step, path = e.get("step"), e.get("path")
+        if e.get("total") is not None:
+            self.total_steps = int(e["total"])
+        if kind == "render_start":
+            w = self._weight(step, path)
+            self.steps[e["index"]] = w
+            self.current = {"step": step, "path": path, "weight": w, "renders": e.get("renders"), "fraction": 0.0}
+            self.status = ("Blender: %s" % path) if step.startswith("blender ") else step.replace("_", " ")
+        elif kind == "progress" and self.current is not None and e.get("of"):
+            self.current["fraction"] = min(1.0, float(e["done"]) / float(e["of"]))
+        elif kind == "render_done":
+            self.done += self.steps.get(e.get("index"), 1.0)
+            self.current = None
+        elif kind == "error":
+            self.errors.append(e.get("message"))
+        elif kind == "done":
+            self.finished = True
+            self.current = None
+
+    def _total(self):
+        n = self.total_steps or 1
+        seen = sum(self.steps.values())
+        return seen + (n - len(self.steps)) * 4.0  # steps not announced yet: a guess of their weight
 
     def fraction(self):
+        self.poll()
+        if self.finished:
+            return 1.0
         done = self.done
-        if self.current is not None:
-            n = self._renders_expected(self.current)
-            try:
-                with open(os.path.join(self.work_dir, "blender_%s.log" % self.current), errors="replace") as f:
-                    k = sum(1 for ln in f if ln.startswith("[airmass-compare] blender_") and ln.rstrip().endswith(" s"))
-            except OSError:
-                k = 0
-            if n:
-                done += self.blender_weight[self.current] * min(0.95, k / n)
-                self.status = "Blender: %s, render %d of %d" % (self.current, min(k + 1, n), n)
-        return max(0.0, min(1.0, done / self.total))
+        c = self.current
+        if c is not None:
+            if c["step"].startswith("blender ") and c["renders"]:
+                try:
+                    with open(os.path.join(self.work_dir, "blender_%s.log" % c["path"]), errors="replace") as f:
+                        k = sum(1 for ln in f if ln.startswith("[airmass-compare] blender_") and ln.rstrip().endswith(" s"))
+                except OSError:
+                    k = 0
+                n = int(c["renders"])
+                c["fraction"] = min(0.95, k / n)
+                self.status = "Blender: %s, render %d of %d" % (c["path"], min(k + 1, n), n)
+            done += c["weight"] * c["fraction"]
+        return max(0.0, min(1.0, done / self._total()))
 
 
 # ---- the plan --------------------------------------------------------------------------------------
@@ -403,7 +421,8 @@ class ComparePlan(Plan):
                "--width", str(self.camera["width"]), "--height", str(self.camera["height"]),
                "--samples", str(self.samples), "--sky-samples", str(self.samples), "--seeds", str(self.seeds),
                "--paths", ",".join(self.paths), "--volume-modes", ",".join(self.volume_modes or ["split"]),
-               "--step", repr(float(self.step_km)), "--max-dense-mb", repr(float(self.max_dense_mb))]
+               "--step", repr(float(self.step_km)), "--max-dense-mb", repr(float(self.max_dense_mb)),
+               "--progress-json", os.path.join(self.work_dir, PROGRESS_FILE)]
         if self.voxel_size is not None:
             cmd += ["--voxel-size", repr(float(self.voxel_size))]
         return cmd
@@ -414,8 +433,7 @@ class ComparePlan(Plan):
         scene_file = os.path.join(self.work_dir, "scene.toml")
         with open(scene_file, "w", encoding="utf-8") as f:
             f.write(self.scene_text)
-        natives = 1 + 2 + sum(p in self.paths for p in ("sky_texture", "analytic_volume_ms", "vdb_volume"))
-        tracker = _Progress(self.work_dir, self.paths, natives)
+        tracker = _Progress(self.work_dir)
         lines = queue.Queue()
         output = []
         proc = subprocess.Popen(self.command(scene_file), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -438,7 +456,6 @@ class ComparePlan(Plan):
                         eof = True
                     else:
                         output.append(text)
-                        tracker.line(text)
                 except queue.Empty:
                     pass
                 fraction = tracker.fraction()

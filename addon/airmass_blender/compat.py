@@ -235,7 +235,9 @@ def has_phase_types():
 
 
 def hg_anisotropy(phase, g):
-    """Henyey–Greenstein g with the same mean cosine as the scene's phase function."""
+    """Henyey–Greenstein g with the same mean cosine as the scene's phase function: the one
+    phase → HG rule, henyey_greenstein_g in the library's phase.hpp (docs/compare.md; the
+    analytic-density JSON carries the library's value as g_hg, tests check they agree)."""
     if phase == "henyey_greenstein":
         return g
     if phase == "cornette_shanks":
@@ -252,12 +254,13 @@ def exact_phase(phase):
     return False  # rayleigh_modified (depolarised) and others: approximated
 
 
-def set_scatter_phase(node, phase, g):
+def set_scatter_phase(node, phase, g, hg_g=None):
     """The constituent's phase on a Volume Scatter node. Returns the phase Blender renders.
 
     4.3+: Rayleigh → RAYLEIGH; Cornette–Shanks → DRAINE with Alpha = 1 (Draine's α blends
     HG (0) and Cornette–Shanks (1): manual, Volume Scatter); HG and isotropic → HENYEY_GREENSTEIN.
-    3.4–4.2 (no `phase`): Henyey–Greenstein with the phase function's mean cosine."""
+    3.4–4.2 (no `phase`): Henyey–Greenstein of g `hg_g` (the library's g_hg), by default
+    hg_anisotropy(phase, g) — the same rule."""
     if has_phase_types():
         if phase in ("rayleigh", "rayleigh_modified"):
             node.phase = "RAYLEIGH"
@@ -268,7 +271,7 @@ def set_scatter_phase(node, phase, g):
             find_socket(node.inputs, "Alpha").default_value = 1.0
             return "DRAINE"
         node.phase = "HENYEY_GREENSTEIN"
-    find_socket(node.inputs, "Anisotropy").default_value = hg_anisotropy(phase, g)
+    find_socket(node.inputs, "Anisotropy").default_value = hg_anisotropy(phase, g) if hg_g is None else hg_g
     return "HENYEY_GREENSTEIN"
 
 

@@ -22,7 +22,7 @@ the whole planet); vdb_host writes them with this Blender's own OpenVDB module (
 from 4.4, `pyopenvdb` before); each file becomes a Volume object (render clipping 0, FULL
 precision), its material reads each grid by name with an Attribute node.
 
-Material (both): per constituent, Volume Scatter with Colour = σs/max(σs) and Density =
+Material (both; built by material.py, which `airmass compare` renders too): per constituent, Volume Scatter with Colour = σs/max(σs) and Density =
 ρ·max(σs) (σs per Blender unit at density 1, RGB), and Volume Absorption with Colour =
 1 − σa/max(σa) and Density = ρ·max(σa): Cycles computes σs = Colour × Density and
 σa = (1 − Colour) × Density, so both are exact per channel and every colour stays in
@@ -40,7 +40,7 @@ import os
 import bpy
 from mathutils import Vector
 
-from . import compat, native, vdb_host
+from . import compat, material, native, vdb_host
 from .jobs import Plan
 from .properties import KM, SettingsError, make_spec, resolve_output_folder
 
@@ -55,233 +55,18 @@ SPHERE_SEGMENTS = 256
 SPHERE_RINGS = 128
 
 
-def hg_anisotropy(phase, g):
-    """Henyey–Greenstein g with the same mean cosine as the scene's phase function."""
-    return compat.hg_anisotropy(phase, g)
-
-
 def units(settings):
     return {"KM": ("km", KM), "M": ("m", 1.0)}[settings.length_unit]
 
 
-# ---- node helpers ------------------------------------------------------------------------
-
-class NodeBuilder:
-    """Creates shader nodes in columns, left to right, and wires constants or sockets."""
-
-    def __init__(self, tree):
-        self.tree = tree
-        self.column = 0
-        self.row = 0
-
-    def place(self, node):
-        node.location = (-1400 + 180 * self.column, 600 - 160 * self.row)
-        self.row += 1
-        if self.row > 12:
-            self.row = 0
-            self.column += 1
-        return node
-
-    def node(self, kind, **props):
-        n = self.place(self.tree.nodes.new(kind))
-        for k, v in props.items():
-            setattr(n, k, v)
-        return n
-
-    def _feed(self, socket, value):
-        if isinstance(value, bpy.types.NodeSocket):
-            self.tree.links.new(value, socket)
-        else:
-            socket.default_value = value
-
-    def math(self, op, a, b=None, c=None):
-        n = self.node("ShaderNodeMath", operation=op)
-        for i, v in enumerate((a, b, c)):
-            if v is not None:
-                self._feed(n.inputs[i], v)
-        return n.outputs[0]
-
-    def dot(self, a, b):
-        n = self.node("ShaderNodeVectorMath", operation="DOT_PRODUCT")
-        self._feed(n.inputs[0], a)
-        self._feed(n.inputs[1], b)
-        return n.outputs["Value"]
-
-
-def altitude_socket(nb, position, center, radius):
-    """h = |p − c| − R computed as q/(sqrt(q + R²) + R), q = p·p − 2p·c + (c·c − R²)."""
-    cc_minus_r2 = sum(x * x for x in center) - radius * radius
-    pp = nb.dot(position, position)
-    q = pp
-    if any(center):
-        pc = nb.dot(position, tuple(center))
-        q = nb.math("MULTIPLY_ADD", pc, -2.0, pp)
-    if cc_minus_r2 != 0.0:
-        q = nb.math("ADD", q, cc_minus_r2)
-    r = nb.math("SQRT", nb.math("ADD", q, radius * radius))
-    return nb.math("DIVIDE", q, nb.math("ADD", r, radius))
-
-
-def in_band(nb, h, lo, hi):
-    """1 where lo ≤ h < hi, else 0."""
-    return nb.math("SUBTRACT", nb.math("LESS_THAN", h, hi), nb.math("LESS_THAN", h, lo))
-
-
-def profile_socket(nb, h, profile, top_altitude):
-    """ρ(h) of one profile (docs/vdb.md "Analytic density"), altitudes in Blender units."""
-    kind = profile["type"].replace("-", "_")
-    if kind == "exponential":
-        H = float(profile["scale_height"])
-        h0 = float(profile.get("reference_altitude", 0.0))
-        return nb.math("EXPONENT", nb.math("MULTIPLY_ADD", h, -1.0 / H, h0 / H))
-    if kind == "tent":
-        b, p, t = float(profile["bottom"]), float(profile["peak"]), float(profile["top"])
-        if p > b and t > p:
-            up = nb.math("MULTIPLY_ADD", h, 1.0 / (p - b), -b / (p - b))
-            down = nb.math("MULTIPLY_ADD", h, -1.0 / (t - p), t / (t - p))
-            return nb.math("MAXIMUM", nb.math("MINIMUM", up, down), 0.0)
-        knots = [(b, 0.0), (p, 1.0), (t, 0.0)]
-    elif kind == "piecewise_linear":
-        knots = [(float(a), float(d)) for a, d in profile["knots"]]
-    elif kind == "constant":
-        b = float(profile.get("bottom", 0.0) or 0.0)
-        t = profile.get("top")
-        t = top_altitude if t is None else float(t)
-        return nb.math("MULTIPLY", in_band(nb, h, b, t), float(profile.get("value", 1.0)))
-    else:
-        raise SettingsError("unknown density profile type '%s' from the library" % profile["type"])
-    total = None
-    for (h0, r0), (h1, r1) in zip(knots, knots[1:]):
-        if not h1 > h0:
-            continue  # a jump: the next piece starts at the new value
-        slope = (r1 - r0) / (h1 - h0)
-        piece = nb.math("MULTIPLY", nb.math("MULTIPLY_ADD", h, slope, r0 - slope * h0), in_band(nb, h, h0, h1))
-        total = piece if total is None else nb.math("ADD", total, piece)
-    return total if total is not None else 0.0
-
-
-def dithered_scatter(nb, scatterers):
-    """One Volume Scatter standing for several scatterers with different Henyey–Greenstein g.
-
-    Cycles 3.4 sums the phase functions of several Volume Scatter closures without their
-    weights (measured +18 % on a clear sky, docs/compare.md). Here, at every shading point,
-    scatterer j is chosen with probability P_j = m_j ρ_j / Σ m ρ (m_j = max_c σs_j,c) by a
-    White Noise texture of the position (a hash of its float bits: a fresh draw at every
-    ray-marching point), and the closure takes its anisotropy g_j and colour σs_j / m_j with
-    density Σ m ρ. Per channel c the expected weight × phase is Σ_j P_j (σs_j,c/m_j) Σmρ p_j
-    = Σ_j σs_j,c ρ_j p_j: the mixture, with a single closure.
-
-    `scatterers`: [(name, σs rgb, g, density socket or float)]. Node names: "<name> scatter
-    weight" (ρ_j × m_j), "<name> scatter colour" (σs_j / m_j), "scatter (dithered)"."""
-    shares, colours = [], []
-    for name, sigma_s, g, density in scatterers:
-        m = max(sigma_s)
-        w = nb.node("ShaderNodeMath", operation="MULTIPLY", name="%s scatter weight" % name,
-                    label="%s scatter weight" % name)
-        nb._feed(w.inputs[0], density)
-        w.inputs[1].default_value = m
-        w["airmass_sigma_s"] = list(sigma_s)
-        shares.append(w.outputs[0])
-        rgb = nb.node("ShaderNodeRGB", name="%s scatter colour" % name, label="%s scatter colour" % name)
-        rgb.outputs[0].default_value = (*[x / m for x in sigma_s], 1.0)
-        colours.append(rgb.outputs[0])
-    total = shares[0]
-    for x in shares[1:]:
-        total = nb.math("ADD", total, x)
-    noise = nb.node("ShaderNodeTexWhiteNoise", noise_dimensions="3D", name="scatterer choice",
-                    label="scatterer choice")
-    nb.tree.links.new(nb.node("ShaderNodeNewGeometry").outputs["Position"], noise.inputs["Vector"])
-    u_total = nb.math("MULTIPLY", noise.outputs["Value"], total)
-    g = float(scatterers[0][2])  # a constant until the first choice below adds to it
-    colour = colours[0]
-    cum = shares[0]
-    for j in range(1, len(scatterers)):
-        chosen = nb.math("GREATER_THAN", u_total, cum)  # scatterer j or a later one
-        g = nb.math("MULTIPLY_ADD", chosen, float(scatterers[j][2]) - float(scatterers[j - 1][2]), g)
-        mix, fac, a, b, result = compat.new_color_mix(nb.tree)
-        nb.place(mix)
-        nb.tree.links.new(chosen, fac)
-        nb.tree.links.new(colour, a)
-        nb.tree.links.new(colours[j], b)
-        colour = result
-        cum = nb.math("ADD", cum, shares[j])
-    node = nb.node("ShaderNodeVolumeScatter", name="scatter (dithered)", label="scatter (dithered)")
-    nb.tree.links.new(colour, node.inputs["Color"])
-    nb.tree.links.new(total, node.inputs["Density"])
-    nb._feed(node.inputs["Anisotropy"], g)
-    return node
-
+# ---- the material: material.py (shared with compare/blender_render.py) ----------------------
 
 def build_material(name, constituents, density_for, phase_mixing="DITHER"):
-    """A volume material from constituent descriptions (name, scattering_rgb, absorption_rgb,
-    phase, g) and `density_for(nb, name)` → a socket (or float) of the relative density.
-
-    phase_mixing "DITHER": where Blender has Henyey–Greenstein only (< 4.3,
-    compat.needs_phase_dither), scatterers of different g share one dithered Volume Scatter
-    (dithered_scatter); "SEPARATE", or 4.3+ with its own phase types (compat.set_scatter_phase):
-    one Volume Scatter per constituent. Coefficients are the library's linear Rec.709 numbers
-    converted to the file's working colour space (compat; identity before 5.0); the node
-    properties airmass_sigma_s / airmass_sigma_a keep the library's own numbers."""
-    mat = bpy.data.materials.new(name)
+    """material.build_material, its MaterialError as the add-on's SettingsError."""
     try:
-        tree = compat.ensure_node_tree(mat)
-        tree.nodes.clear()
-        compat.set_heterogeneous_volume(mat)
-        nb = NodeBuilder(tree)
-        out = tree.nodes.new("ShaderNodeOutputMaterial")
-        out.location = (900, 300)
-        matrix = compat.rec709_to_working_matrix()
-        shaders = []
-        scatterers = [c for c in constituents if max(float(x) for x in c["scattering_rgb"]) > 0.0]
-        dither = phase_mixing == "DITHER" and compat.needs_phase_dither(
-            [(c.get("phase", "isotropic"), float(c.get("g", 0.0))) for c in scatterers])
-        dithered = []
-        for c in constituents:
-            sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
-            sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
-            if max(sigma_s) <= 0.0 and max(sigma_a) <= 0.0:
-                continue
-            # In the working space (Rec.709 ⊂ Rec.2020, ACEScg: positive stays positive).
-            ws_s = [max(0.0, x) for x in compat.convert_rgb(sigma_s, matrix)]
-            ws_a = [max(0.0, x) for x in compat.convert_rgb(sigma_a, matrix)]
-            density = density_for(nb, c["name"])
-            phase = c.get("phase", "isotropic")
-            g = float(c.get("g", 0.0))
-            if max(ws_s) > 0.0 and dither:
-                dithered.append((c["name"], ws_s, compat.hg_anisotropy(phase, g), density))
-            elif max(ws_s) > 0.0:
-                ds = max(ws_s)
-                node = nb.node("ShaderNodeVolumeScatter", name="%s scatter" % c["name"], label="%s scatter" % c["name"])
-                node.inputs["Color"].default_value = (*[x / ds for x in ws_s], 1.0)
-                nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, ds) if not isinstance(density, float)
-                         else density * ds)
-                node["airmass_phase"] = compat.set_scatter_phase(node, phase, g)
-                node["airmass_sigma_s"] = sigma_s
-                shaders.append(node.outputs[0])
-            if max(ws_a) > 0.0:
-                da = max(ws_a)
-                node = nb.node("ShaderNodeVolumeAbsorption", name="%s absorption" % c["name"],
-                               label="%s absorption" % c["name"])
-                node.inputs["Color"].default_value = (*[1.0 - x / da for x in ws_a], 1.0)
-                nb._feed(node.inputs["Density"], nb.math("MULTIPLY", density, da) if not isinstance(density, float)
-                         else density * da)
-                node["airmass_sigma_a"] = sigma_a
-                shaders.append(node.outputs[0])
-        if dithered:
-            shaders.append(dithered_scatter(nb, dithered).outputs[0])
-        if not shaders:
-            raise SettingsError("the scene has no constituent that scatters or absorbs light")
-        total = shaders[0]
-        for s in shaders[1:]:
-            add = nb.node("ShaderNodeAddShader")
-            tree.links.new(total, add.inputs[0])
-            tree.links.new(s, add.inputs[1])
-            total = add.outputs[0]
-        tree.links.new(total, out.inputs["Volume"])
-        return mat
-    except Exception:
-        bpy.data.materials.remove(mat)
-        raise
+        return material.build_material(name, constituents, density_for, phase_mixing=phase_mixing)
+    except material.MaterialError as e:
+        raise SettingsError(str(e))
 
 
 def cutoff_notes(constituents, top_altitude, unit_name):
@@ -599,15 +384,7 @@ class AnalyticPlan(Plan):
             center = tuple(float(x) for x in description["planet_center"])
             constituents = description["constituents"]
 
-            def density_for(nb, name):
-                if getattr(nb, "h", None) is None:
-                    coords = nb.node("ShaderNodeTexCoord").outputs["Object"]
-                    nb.h = altitude_socket(nb, coords, center, R)
-                    nb.mask = nb.math("MULTIPLY", nb.math("GREATER_THAN", nb.h, 0.0),
-                                      nb.math("LESS_THAN", nb.h, top_alt))
-                c = next(c for c in constituents if c["name"] == name)
-                return nb.math("MULTIPLY", profile_socket(nb, nb.h, c["profile"], top_alt), nb.mask)
-
+            density_for = material.analytic_density(center, R, top_alt, constituents)
             mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
             mat[ROLE] = "atmosphere"
             axis, theta = view_cap(context, s, description, self.unit_m)
@@ -772,11 +549,8 @@ class VdbPlan(Plan):
             grid_names = sorted({g.name for v in volumes for g in v.grids})
             constituents = self._constituents(description, metadata, grid_names)
 
-            def density_for(nb, name):
-                attr = nb.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=name)
-                return compat.fac_socket(attr.outputs)
-
-            mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
+            mat = created.add(build_material(VOLUME_NAME, constituents, material.grid_density(),
+                                             phase_mixing=s.phase_mixing))
             mat[ROLE] = "atmosphere"
             new = []
             for i, vol in enumerate(volumes):
@@ -818,6 +592,7 @@ class VdbPlan(Plan):
                             "absorption_rgb": list(meta.get("airmass:absorption_rgb", (0.0, 0.0, 0.0))),
                             "phase": meta.get("airmass:phase", "isotropic"),
                             "g": float(meta.get("airmass:g", 0.0)),
+                            "g_hg": by_name.get(name, {}).get("g_hg"),
                             "profile": by_name.get(name, {}).get("profile", {})})
             elif name in by_name:
                 out.append(by_name[name])

@@ -9,7 +9,7 @@
 //       --max-steps N --blender EXE --python EXE --scripts DIR --addon DIR --threads N
 //       --timeout S --sun-elevation DEG --sun-rotation DEG --volume-modes split,rgb
 //       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
-//       --max-distance KM --quiet]
+//       --max-distance KM --progress-json FILE|-|fd:N --no-blender --quiet]
 //
 // What it does, in order (every file lands in DIR):
 //   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
@@ -46,6 +46,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -88,7 +89,25 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::vector<std::string> kPaths = {"sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume"};
+// The comparison paths — the one list (job.json's plan carries it to blender_render.py, report.py
+// and the add-on): name, the native image it is compared with, its title in the report.
+struct ComparePath {
+    const char* name;
+    const char* reference;
+    const char* title;
+};
+const std::vector<ComparePath> kPathTable = {
+    {"sky_texture", "native_physical_box", "Sky texture as World background"},
+    {"analytic_volume", "native_matched", "Analytic (node-tree) volume lit by a Sun lamp"},
+    {"analytic_volume_ms", "native_matched_ms",
+     "Analytic volume with multiple scattering (Cycles volume and diffuse bounces)"},
+    {"vdb_volume", "native_matched_box", "VDB volume lit by a Sun lamp"},
+};
+const std::vector<std::string> kPaths = [] {
+    std::vector<std::string> v;
+    for (const auto& p : kPathTable) v.emplace_back(p.name);
+    return v;
+}();
 
 // A comma-separated list of names, each one of `allowed`; errors name the option.
 std::vector<std::string> parse_choices(const std::string& text, const std::string& option,
@@ -134,11 +153,79 @@ struct CompareOptions {
     std::optional<double> sun_elevation_deg, sun_rotation_deg;
     bool quiet = false;
     bool no_report = false;
+    bool no_blender = false;
+    std::string progress_json;  // "", "-" (stderr), "fd:N" or a file: JSON-lines progress events
     render_detail::CameraOverrides camera;
 };
 
 void say(bool quiet, const std::string& msg) {
     if (!quiet) std::fprintf(stderr, "compare: %s\n", msg.c_str());
+}
+
+// --progress-json: machine-readable progress, one JSON object per line, flushed (docs/compare.md
+// "Progress events"). Every step of the run — each native render, the sky texture and VDB
+// inputs, each Blender path, the report — is announced by render_start {step, path, index,
+// total} (path: the comparison path a Blender step renders, else null; a Blender step also
+// gives `renders`, the number of Cycles renders it makes) and closed by render_done {step, path,
+// index, total, ok, seconds}; native renders send progress {step, index, total, done, of};
+// error {step, path, message} for a path that failed; done {ok} last (ok false: the run failed).
+class ProgressEvents {
+public:
+    explicit ProgressEvents(const std::string& dest) {
+        if (dest.empty()) return;
+        if (dest == "-") {
+            out_ = stderr;
+        } else if (dest.rfind("fd:", 0) == 0) {
+            out_ = ::fdopen(std::stoi(dest.substr(3)), "w");
+            owned_ = out_ != nullptr;
+        } else {
+            out_ = std::fopen(dest.c_str(), "a");
+            owned_ = out_ != nullptr;
+        }
+        if (!out_) throw CliError("compare: --progress-json " + dest + ": cannot open");
+    }
+    ProgressEvents(const ProgressEvents&) = delete;
+    ProgressEvents& operator=(const ProgressEvents&) = delete;
+    ~ProgressEvents() {
+        if (owned_) std::fclose(out_);
+    }
+    void set_steps(std::vector<std::string> steps) { steps_ = std::move(steps); }
+    int index(const std::string& step) const {
+        const auto it = std::find(steps_.begin(), steps_.end(), step);
+        return it == steps_.end() ? -1 : int(it - steps_.begin());
+    }
+    nlohmann::json event(const char* name, const std::string& step, const std::string& path = "") const {
+        nlohmann::json j{{"event", name}, {"step", step}, {"index", index(step)}, {"total", steps_.size()}};
+        j["path"] = path.empty() ? nlohmann::json() : nlohmann::json(path);
+        return j;
+    }
+    void emit(const nlohmann::json& j) {
+        if (!out_) return;
+        std::fprintf(out_, "%s\n", j.dump().c_str());
+        std::fflush(out_);
+    }
+
+private:
+    std::FILE* out_ = nullptr;
+    bool owned_ = false;
+    std::vector<std::string> steps_;
+};
+
+// The Cycles renders blender_render.py makes for `path` (its render_seeds), from the job.
+int planned_blender_renders(const nlohmann::json& job, const std::string& path) {
+    const int seeds = job["seeds"][path].get<int>();
+    if (path == "sky_texture") return seeds;
+    if (path == "analytic_volume_ms") return seeds * 3 * int(job["multiple"]["modes"].size());
+    int scatterers = 0;
+    if (job.contains("constituents"))
+        for (const auto& c : job["constituents"]) {
+            double m = 0.0;
+            for (const auto& v : c["scattering_rgb"]) m = std::max(m, v.get<double>());
+            scatterers += m > 0.0;
+        }
+    int per_seed = 0;
+    for (const auto& m : job["volume_modes"]) per_seed += m.get<std::string>() == "split" ? 3 * scatterers : 1;
+    return seeds * per_seed;
 }
 
 void write_text(const fs::path& path, const std::string& text) { write_text_atomic(path, text); }
@@ -264,13 +351,20 @@ MediumBox view_box(const Scene& scene, const CameraModel& cam) {
     return {lo - glm::dvec3(1.0), hi + glm::dvec3(1.0)};
 }
 
-json native_entry(const std::string& file, double seconds, const RenderSettings& s) {
+json native_entry(const Scene& scene, const std::string& file, double seconds, const RenderSettings& s) {
     json j{{"file", file},
            {"seconds", seconds},
            {"renderer_matched", s.renderer_matched},
            {"color_model", s.color == ColorModel::spectral ? "spectral" : "renderer_rgb"},
            {"view_samples", s.view_samples},
            {"multiple_scattering", s.multiple_scattering}};
+    if (s.renderer_matched) {
+        // The Henyey–Greenstein g this image was rendered with (the one rule, henyey_greenstein_g):
+        // the material's Volume Scatter gets the same (tests/blender/test_material_graph.py).
+        json g = json::object();
+        for (const auto& c : renderer_matched_scene(scene).constituents) g[c.name] = c.phase.g;
+        j["henyey_greenstein_g"] = g;
+    }
     if (s.medium_box) {
         const auto& b = *s.medium_box;
         j["medium_box_km"] = {b.min_m.x / 1e3, b.min_m.y / 1e3, b.min_m.z / 1e3,
@@ -279,7 +373,7 @@ json native_entry(const std::string& file, double seconds, const RenderSettings&
     return j;
 }
 
-void run_compare(const CompareOptions& o) {
+void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     using namespace render_detail;
     const Scene scene =
         load_render_scene(o.scene_path, o.preset, o.sun_elevation_deg, o.sun_rotation_deg, "compare", o.camera);
@@ -307,6 +401,23 @@ void run_compare(const CompareOptions& o) {
     fs::create_directories(dir, ec);
     if (ec || !fs::is_directory(dir)) throw CliError("compare: cannot create output directory " + dir.string());
 
+    // The plan: every step of this run, in order (the progress events' index / total).
+    {
+        std::vector<std::string> steps{"native_physical"};
+        if (wants("sky_texture")) steps.push_back("native_physical_box");
+        steps.push_back("native_hg_spectral");
+        steps.push_back("native_matched");
+        if (wants("analytic_volume_ms")) steps.push_back("native_matched_ms");
+        if (wants("vdb_volume")) steps.push_back("native_matched_box");
+        if (wants("sky_texture")) steps.push_back("sky_texture_input");
+        if (wants("vdb_volume")) steps.push_back("vdb_export");
+        if (!o.no_blender) {
+            for (const auto& p : paths) steps.push_back("blender " + p);
+            if (!o.no_report) steps.push_back("report");
+        }
+        events.set_steps(steps);
+    }
+
     CancelFlag cancel;
     InterruptGuard guard(cancel);
     const bool bar_on = stderr_is_terminal() && !o.quiet;
@@ -323,7 +434,6 @@ void run_compare(const CompareOptions& o) {
     job["camera"]["clip_end"] = 1e6;
     job["paths_requested"] = paths;
     job["addon_dir"] = addon.string();
-    job["use_addon"] = "auto";
     job["blender_threads"] = o.threads;
     job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"analytic_volume_ms", o.seeds},
                     {"vdb_volume", o.seeds}};
@@ -352,19 +462,39 @@ void run_compare(const CompareOptions& o) {
     auto native = [&](const std::string& name, RenderSettings s) {
         check_cancel();
         const fs::path file = dir / (name + ".exr");
+        events.emit(events.event("render_start", name));
         const auto t0 = std::chrono::steady_clock::now();
         FloatImage img;
         {
             ProgressBar bar("native " + name, std::size_t(cam.height), bar_on);
             RenderHooks hooks;
             hooks.cancel = &cancel;
-            hooks.work_done = [&bar](std::size_t n, std::size_t) { bar.advance(n); };
+            std::size_t rows = 0;
+            int percent = -1;
+            std::mutex mutex;  // work_done comes from the worker threads
+            hooks.work_done = [&](std::size_t n, std::size_t) {
+                bar.advance(n);
+                const std::lock_guard<std::mutex> lock(mutex);
+                rows += n;
+                const int pc = int(100 * rows / std::max<std::size_t>(1, std::size_t(cam.height)));
+                if (pc != percent) {
+                    percent = pc;
+                    json e = events.event("progress", name);
+                    e["done"] = rows;
+                    e["of"] = cam.height;
+                    events.emit(e);
+                }
+            };
             img = render_camera(scene, s, hooks);
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         check_cancel();
         write_exr_atomic(file, img, render_metadata(scene, s));
-        natives[name] = native_entry(file.filename().string(), seconds, s);
+        natives[name] = native_entry(scene, file.filename().string(), seconds, s);
+        json done = events.event("render_done", name);
+        done["ok"] = true;
+        done["seconds"] = seconds;
+        events.emit(done);
         say(o.quiet, "native " + name + ": " + std::to_string(seconds) + " s");
     };
     native("native_physical", base);
@@ -421,8 +551,21 @@ void run_compare(const CompareOptions& o) {
                      {"ground_max_step_deg", 0.5}};
     job["volume"] = {{"step_km", o.step_km}, {"max_steps", o.max_steps}, {"domain_margin_km", 5.0}};
 
+    auto step_done = [&](const std::string& step, const std::string& path, bool ok, double seconds) {
+        json e = events.event("render_done", step, path);
+        e["ok"] = ok;
+        e["seconds"] = seconds;
+        events.emit(e);
+    };
+    auto step_error = [&](const std::string& step, const std::string& path, const std::string& message) {
+        json e = events.event("error", step, path);
+        e["message"] = message;
+        events.emit(e);
+    };
+
     // ---- inputs per path ---------------------------------------------------------------------
     if (wants("sky_texture")) {
+        events.emit(events.event("render_start", "sky_texture_input", "sky_texture"));
         try {
             check_cancel();
             // Texels no larger than the camera's pixels / oversample at the image centre (where a
@@ -470,10 +613,13 @@ void run_compare(const CompareOptions& o) {
                                   {"camera_off_axis_m", off_axis_m}};
             say(o.quiet, "sky texture " + std::to_string(w) + "x" + std::to_string(w / 2) + ": " +
                              std::to_string(seconds) + " s");
+            step_done("sky_texture_input", "sky_texture", true, seconds);
         } catch (const Cancelled&) {
             throw;
         } catch (const std::exception& ex) {
             job["errors"]["sky_texture"] = std::string("sky texture: ") + ex.what();
+            step_error("sky_texture_input", "sky_texture", job["errors"]["sky_texture"].get<std::string>());
+            step_done("sky_texture_input", "sky_texture", false, 0.0);
         }
     }
     std::vector<json> constituents;
@@ -485,12 +631,9 @@ void run_compare(const CompareOptions& o) {
             const std::string text = analytic_density_json(scene, vo);
             write_text(dir / "analytic.json", text);
             const json a = json::parse(text);
-            for (const auto& c : a.at("constituents")) {
-                json cj = c;
-                const std::string ph = c.at("phase").get<std::string>();
-                cj["g_hg"] = (ph == "cornette_shanks" || ph == "henyey_greenstein") ? c.at("g").get<double>() : 0.0;
-                constituents.push_back(cj);
-            }
+            // Each carries g_hg, the Henyey–Greenstein g of the one rule (henyey_greenstein_g,
+            // phase.hpp): what the material's Volume Scatter gets and what native_matched renders.
+            for (const auto& c : a.at("constituents")) constituents.push_back(c);
             job["constituents"] = constituents;
             job["analytic_json"] = (dir / "analytic.json").string();
         } catch (const std::exception& ex) {
@@ -498,6 +641,7 @@ void run_compare(const CompareOptions& o) {
                 job["errors"][p] = std::string("analytic density: ") + ex.what();
         }
     }
+    if (wants("vdb_volume")) events.emit(events.event("render_start", "vdb_export", "vdb_volume"));
     if (wants("vdb_volume") && !job["errors"].contains("vdb_volume")) {
         try {
             check_cancel();
@@ -541,19 +685,50 @@ void run_compare(const CompareOptions& o) {
                           {"half_voxel_correction", true}};
             say(o.quiet, "vdb: voxel " + std::to_string(stats.voxel_size) + " km, " + std::to_string(stats.files.size()) +
                              " file(s), " + std::to_string(seconds) + " s");
+            step_done("vdb_export", "vdb_volume", true, seconds);
         } catch (const Cancelled&) {
             throw;
         } catch (const std::exception& ex) {
             job["errors"]["vdb_volume"] = std::string("VDB export: ") + ex.what();
         }
     }
+    if (wants("vdb_volume") && job["errors"].contains("vdb_volume")) {
+        step_error("vdb_export", "vdb_volume", job["errors"]["vdb_volume"].get<std::string>());
+        step_done("vdb_export", "vdb_volume", false, 0.0);
+    }
+    // The plan, for blender_render.py, report.py and the add-on: every path this CLI knows (the
+    // one list: kPaths), those requested, the steps of the progress events, and how many Cycles
+    // renders each Blender path makes.
+    {
+        json renders = json::object();
+        for (const auto& p : paths)
+            if (!job["errors"].contains(p)) renders[p] = planned_blender_renders(job, p);
+        json table = json::array();
+        for (const auto& p : kPathTable)
+            table.push_back({{"name", p.name}, {"reference", p.reference}, {"title", p.title}});
+        job["plan"] = {{"all_paths", table}, {"paths", paths}, {"blender_renders", renders}};
+    }
     write_text(dir / "job.json", job.dump(2) + "\n");
+    if (o.no_blender) {
+        events.emit(json{{"event", "done"}, {"ok", true}});
+        say(o.quiet, "wrote " + (dir / "job.json").string() + " (--no-blender)");
+        return;
+    }
 
     // ---- Blender --------------------------------------------------------------------------------
     json blender_runs = json::object();
     for (const auto& p : paths) {
         check_cancel();
-        if (job["errors"].contains(p)) continue;
+        {
+            json e = events.event("render_start", "blender " + p, p);
+            e["renders"] = job["plan"]["blender_renders"].value(p, 0);
+            events.emit(e);
+        }
+        if (job["errors"].contains(p)) {
+            step_error("blender " + p, p, job["errors"][p].get<std::string>());
+            step_done("blender " + p, p, false, 0.0);
+            continue;
+        }
         const fs::path log = dir / ("blender_" + p + ".log");
         fs::remove(log, ec);
         say(o.quiet, "blender " + p + " (" + std::to_string(job["seeds"][p].get<int>()) + " seeds x " +
@@ -572,6 +747,8 @@ void run_compare(const CompareOptions& o) {
                                tail_of(log, 12);
         }
         say(o.quiet, "blender " + p + ": " + (rc == 0 ? "ok" : "FAILED") + ", " + std::to_string(seconds) + " s");
+        if (rc != 0) step_error("blender " + p, p, job["errors"][p].get<std::string>());
+        step_done("blender " + p, p, rc == 0, seconds);
     }
     job["blender_runs"] = blender_runs;
     write_text(dir / "job.json", job.dump(2) + "\n");
@@ -591,6 +768,8 @@ void run_compare(const CompareOptions& o) {
                    : std::vector<std::string>{o.python, report_py, dir.string()};
     const std::string runner = in_blender ? "Blender (" + o.blender + ")" : "--python " + o.python;
     say(o.quiet, "report (" + runner + ") ...");
+    events.emit(events.event("render_start", "report"));
+    const auto t_report = std::chrono::steady_clock::now();
     bool timed_out = false;
     const int rc = run_process(report_argv, log, o.timeout_s, cancel, timed_out);
     check_cancel();
@@ -600,7 +779,21 @@ void run_compare(const CompareOptions& o) {
                        " (exit status " + std::to_string(rc) + "); the renders are in " + dir.string() +
                        "; last lines of " + log.string() + ":\n" + tail_of(log, 20));
     if (!o.quiet) std::fprintf(stderr, "%s", tail_of(log, 40).c_str());
+    step_done("report", "", true, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_report).count());
+    events.emit(json{{"event", "done"}, {"ok", true}});
     say(o.quiet, "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
+}
+
+// run_compare_steps with its progress events: a failure ends them with error and done {ok: false}.
+void run_compare(const CompareOptions& o) {
+    ProgressEvents events(o.progress_json);
+    try {
+        run_compare_steps(o, events);
+    } catch (const std::exception& ex) {
+        events.emit(json{{"event", "error"}, {"step", nullptr}, {"path", nullptr}, {"message", ex.what()}});
+        events.emit(json{{"event", "done"}, {"ok", false}});
+        throw;
+    }
 }
 
 }  // namespace
@@ -661,6 +854,11 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees");
     cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation, degrees");
     cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
+    cmd->add_flag("--no-blender", o->no_blender,
+                  "Stop after the native renders and Blender's inputs (job.json: the plan, the constituents and "
+                  "their Henyey-Greenstein g)");
+    cmd->add_option("--progress-json", o->progress_json,
+                    "Write progress events as JSON lines to FILE, '-' (stderr) or fd:N (docs/compare.md)");
     cmd->add_flag("-q,--quiet", o->quiet, "No progress output");
     render_detail::add_camera_options(cmd, o->camera);
     cmd->callback([o] {

@@ -71,6 +71,17 @@ bool is_rayleigh_like(const PhaseFunction& f) {
     return f.kind == PhaseFunction::Kind::rayleigh || f.kind == PhaseFunction::Kind::rayleigh_modified;
 }
 
+double henyey_greenstein_g(const PhaseFunction& f) {
+    switch (f.kind) {
+        case PhaseFunction::Kind::henyey_greenstein: return f.g;
+        case PhaseFunction::Kind::cornette_shanks: return 3.0 * f.g * (4.0 + f.g * f.g) / (5.0 * (2.0 + f.g * f.g));
+        case PhaseFunction::Kind::rayleigh:
+        case PhaseFunction::Kind::rayleigh_modified:
+        case PhaseFunction::Kind::isotropic: return 0.0;
+    }
+    return 0.0;
+}
+
 #define AIRMASS_INSTANTIATE(T)                                \
     template T phase_rayleigh<T>(T);                          \
     template T phase_rayleigh_modified<T>(T);                 \

@@ -66,13 +66,7 @@ void validate(const RenderSettings& s) {
 Scene renderer_matched_scene(const Scene& scene) {
     Scene out = scene;
     for (Constituent& c : out.constituents) {
-        switch (c.phase.kind) {
-            case PhaseFunction::Kind::cornette_shanks:
-            case PhaseFunction::Kind::henyey_greenstein: break;  // keep g
-            case PhaseFunction::Kind::rayleigh:
-            case PhaseFunction::Kind::rayleigh_modified:
-            case PhaseFunction::Kind::isotropic: c.phase.g = 0.0; break;
-        }
+        c.phase.g = henyey_greenstein_g(c.phase);  // the one rule (phase.hpp)
         c.phase.kind = PhaseFunction::Kind::henyey_greenstein;
     }
     return out;

@@ -47,4 +47,12 @@ T phase(const PhaseFunction& f, T mu);
 // every other phase function (Cornette–Shanks, Henyey–Greenstein, isotropic) is Mie-like.
 bool is_rayleigh_like(const PhaseFunction& f);
 
+// The one phase → Henyey–Greenstein rule (docs/compare.md, "One phase → HG rule"): the g a
+// renderer whose only phase function is Henyey–Greenstein (Cycles 3.4–4.2's Volume Scatter)
+// is given for `f` — HG keeps its g; Cornette–Shanks gets the HG of the same mean cosine,
+// 3g(4 + g²)/(5(2 + g²)) (0.8 → 0.8436); Rayleigh, modified Rayleigh and isotropic 0. Used by
+// renderer_matched_scene, the analytic-density JSON ("g_hg", read by the Blender add-on and
+// `airmass compare`) and mirrored by the add-on's compat.hg_anisotropy (tested equal).
+double henyey_greenstein_g(const PhaseFunction& f);
+
 }  // namespace airmass

@@ -23,8 +23,9 @@
 //     source, channel c = the radiance computed at wavelength c. No colour matrix.
 //
 // "Renderer-matched" (renderer_matched_scene): every phase function replaced by
-// Henyey–Greenstein with the same g (Rayleigh, modified Rayleigh and isotropic → g = 0),
-// which is all Blender 3.4's Volume Scatter offers. With renderer_rgb and (for a volume cut
+// Henyey–Greenstein with the g of henyey_greenstein_g (phase.hpp: Cornette–Shanks → the HG of
+// the same mean cosine, Rayleigh, modified Rayleigh and isotropic → 0), which is all Blender
+// 3.4's Volume Scatter offers and exactly what the add-on's material gives it. With renderer_rgb and (for a volume cut
 // to a box) `medium_box`, the native image is what Cycles should converge to, so a
 // comparison isolates Cycles' own errors (docs/compare.md).
 //
@@ -94,7 +95,7 @@ struct RenderSettings {
 // Throws RenderError naming the first bad field.
 void validate(const RenderSettings& settings);
 
-// The scene with every phase function replaced by Henyey–Greenstein of the same g.
+// The scene with every phase function replaced by Henyey–Greenstein of g = henyey_greenstein_g (phase.hpp).
 Scene renderer_matched_scene(const Scene& scene);
 
 // The sun's top-of-atmosphere irradiance in linear Rec.709 through the scene's basis,

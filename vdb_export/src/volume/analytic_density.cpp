@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "airmass/phase.hpp"
 #include "airmass/volume.hpp"
 #include "volume_format.hpp"
 
@@ -98,7 +99,9 @@ std::string analytic_density_json(const Scene& scene, const VdbOptions& options)
                                     {"absorption_rgb", rgb(c.absorption_rgb)},
                                     {"extinction_rgb", rgb(ext)},
                                     {"phase", detail::phase_name(c.source->phase.kind)},
-                                    {"g", c.source->phase.g}});
+                                    {"g", c.source->phase.g},
+                                    // What Henyey–Greenstein-only renderers get (phase.hpp).
+                                    {"g_hg", henyey_greenstein_g(c.source->phase)}});
     }
     const json j{
         {"format", "airmass-analytic-density"},
