@@ -3,21 +3,18 @@
 #include <cstring>
 #include <exception>
 
+#include "airmass/version.hpp"
 #include "commands.hpp"
-
-#ifndef AIRMASS_VERSION_STRING
-#error "AIRMASS_VERSION_STRING must be defined by the build (plugin/cli/CMakeLists.txt)"
-#endif
 
 int main(int argc, char** argv) {
     // `airmass --version`: answered before any command is set up (nothing else is touched).
     if (argc == 2 && (std::strcmp(argv[1], "--version") == 0 || std::strcmp(argv[1], "-V") == 0)) {
-        std::printf("airmass %s\n", AIRMASS_VERSION_STRING);
+        std::printf("airmass %s\n", airmass::version_string());
         return 0;
     }
     CLI::App app{"airmass: a planet's atmosphere around a fast, well-tested Chapman function"};
     // Listed in --help; the fast path above answers it alone.
-    app.set_version_flag("-V,--version", std::string("airmass ") + AIRMASS_VERSION_STRING);
+    app.set_version_flag("-V,--version", std::string("airmass ") + airmass::version_string());
     app.require_subcommand(1);
     airmass::cli::add_chapman_command(app);
     airmass::cli::add_eval_command(app);
