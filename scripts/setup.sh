@@ -14,6 +14,8 @@ PACKAGES=(
   # reference data, plots and tests (Debian's python3, which Blender also sees)
   python3 python3-numpy python3-scipy python3-mpmath python3-matplotlib python3-pytest
   python3-openvdb python3-openimageio
+  # the solar-position test's independent reference (tests/python/test_sun.py)
+  python3-ephem
   # renderers
   blender povray
   # headless X server: the Blender add-on's UI test (tests/blender/run_ui_tests.py) and panel screenshot

@@ -7,14 +7,26 @@
 //       --no-multiple --ms-mode orders|isotropic_lut --ms-orders K --ms-samples N --ms-table A,V,S,Z]
 //
 // The output is written atomically; Ctrl-C stops the render and leaves no file.
+//
+// Sequences (docs/sun.md): --time-range START,END --fps RATE [--frames A-B] [--latitude D
+// --longitude D] [--delta-t S] with -o out/sky_####.exr renders frame k (1-based) at
+// START + (k − 1)/RATE, the sun from the Solar Position Algorithm at the scene's place
+// ([sun] latitude_deg/longitude_deg) or the one given, and writes a CSV of the frames' sun
+// angles and Sun-lamp strength/colour once every frame is written. The multiple-scattering
+// tables are computed once for all frames. --frames A-B renders only those frames of the
+// sequence (a shard: shards on different machines make the same files as one run).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "airmass/chapman.hpp"
 #include "airmass/image_io.hpp"
@@ -23,7 +35,10 @@
 #include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
+#include "airmass/solar_position.hpp"
+#include "airmass/sun_light.hpp"
 #include "commands.hpp"
+#include "sun_options.hpp"
 #include "ms_options.hpp"
 #include "csv.hpp"
 
@@ -47,6 +62,10 @@ struct SkyOptions {
     bool quiet = false;
     bool no_multiple = false;
     MsCliOptions ms;
+    // sequences
+    std::string time_range, fps, frames, frames_csv;
+    std::optional<double> latitude_deg, longitude_deg;
+    SunCliOptions sun;
 };
 
 double parse_number(const std::string& text, const std::string& what) {
@@ -134,6 +153,213 @@ void apply_sky_overrides(Scene& scene, const std::optional<double>& sun_elevatio
     }
 }
 
+// ---- Sequences ------------------------------------------------------------------------
+
+struct Sequence {
+    UtcTime start;
+    double step_s = 0.0;  // seconds between frames
+    int count = 0;        // frames in the whole sequence
+    int first = 1, last = 0;  // the frames this run renders (1-based, inclusive)
+};
+
+// --fps: a positive number or a fraction A/B ("1/600": one frame per ten minutes); returns
+// the seconds between frames.
+double parse_frame_step(const std::string& text) {
+    const auto slash = text.find('/');
+    double a = 0.0, b = 1.0;
+    const bool ok = slash == std::string::npos
+                        ? parse_finite_number(text, a)
+                        : parse_finite_number(text.substr(0, slash), a) && parse_finite_number(text.substr(slash + 1), b);
+    if (!ok || !(a > 0.0) || !(b > 0.0) || !(b / a <= 1e9) || !(b / a >= 1e-6))
+        throw CliError("sky: --fps '" + text +
+                       "': must be a positive number of frames per second of solar time, or a fraction A/B "
+                       "(1/600 = one frame per 10 minutes); between 1e-9 and 1e6 frames per second");
+    return b / a;
+}
+
+Sequence parse_sequence(const SkyOptions& o) {
+    Sequence q;
+    const auto comma = o.time_range.find(',');
+    if (comma == std::string::npos)
+        throw CliError("sky: --time-range '" + o.time_range + "': expected START,END (ISO 8601 UTC times)");
+    UtcTime end;
+    try {
+        q.start = parse_utc(o.time_range.substr(0, comma), "--time-range START");
+        end = parse_utc(o.time_range.substr(comma + 1), "--time-range END");
+    } catch (const SolarPositionError& e) {
+        throw CliError(std::string("sky: ") + e.what());
+    }
+    const double span = seconds_between(q.start, end);
+    if (!(span >= 0.0)) throw CliError("sky: --time-range '" + o.time_range + "': END is before START");
+    if (o.fps.empty()) throw CliError("sky: --time-range needs --fps (frames per second of solar time, e.g. 1/600)");
+    q.step_s = parse_frame_step(o.fps);
+    const double n = std::floor(span / q.step_s + 1e-9) + 1.0;
+    if (n > 1e6) throw CliError("sky: --time-range with --fps " + o.fps + " makes more than 1000000 frames");
+    q.count = int(n);
+    q.first = 1;
+    q.last = q.count;
+    if (!o.frames.empty()) {
+        const auto dash = o.frames.find('-');
+        double a = 0, b = 0;
+        const bool ok = dash == std::string::npos
+                            ? parse_finite_number(o.frames, a) && (b = a, true)
+                            : parse_finite_number(o.frames.substr(0, dash), a) &&
+                                  parse_finite_number(o.frames.substr(dash + 1), b);
+        if (!ok || a != std::floor(a) || b != std::floor(b) || a < 1 || b < a || b > q.count)
+            throw CliError("sky: --frames '" + o.frames + "': expected A-B with 1 <= A <= B <= " +
+                           std::to_string(q.count) + " (the sequence's frame count)");
+        q.first = int(a);
+        q.last = int(b);
+    }
+    return q;
+}
+
+// `pattern` with its run of '#' replaced by the frame number, zero-padded to the run's width.
+std::string frame_path(const std::string& pattern, int frame) {
+    const auto begin = pattern.find('#');
+    const auto end = pattern.find_first_not_of('#', begin);
+    const std::size_t width = (end == std::string::npos ? pattern.size() : end) - begin;
+    std::string number = std::to_string(frame);
+    if (number.size() < width) number.insert(0, width - number.size(), '0');
+    return pattern.substr(0, begin) + number + (end == std::string::npos ? "" : pattern.substr(end));
+}
+
+// The CSV beside the frames: "out/sky_####.exr" → "out/sky.csv" (whole sequence) or
+// "out/sky_0004-0006.csv" (a shard), so shards in one folder do not overwrite each other.
+std::string default_csv_path(const std::string& pattern, const Sequence& q) {
+    std::filesystem::path p(pattern);
+    std::string stem = p.stem().string();
+    const auto begin = stem.find('#');
+    std::string base = stem;
+    if (begin != std::string::npos) {
+        const auto end = stem.find_first_not_of('#', begin);
+        std::size_t cut = begin;
+        if (cut > 0 && (stem[cut - 1] == '_' || stem[cut - 1] == '-' || stem[cut - 1] == '.')) --cut;
+        base = stem.substr(0, cut) + (end == std::string::npos ? "" : stem.substr(end));
+    }
+    if (base.empty()) base = "frames";
+    if (q.first != 1 || q.last != q.count)
+        base += "_" + frame_path(std::string(4, '#'), q.first) + "-" + frame_path(std::string(4, '#'), q.last);
+    return (p.parent_path() / (base + ".csv")).string();
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+    const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) throw CliError("sky: " + path + ": cannot write");
+        out << text;
+        out.flush();
+        if (!out) {
+            std::filesystem::remove(tmp);
+            throw CliError("sky: " + path + ": cannot write");
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::filesystem::remove(tmp);
+        throw CliError("sky: " + path + ": cannot write (" + ec.message() + ")");
+    }
+}
+
+void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& settings) {
+    if (o.sun_elevation_deg || o.sun_rotation_deg)
+        throw CliError("sky: --time-range takes the sun from the place and time; drop --sun-elevation/--sun-rotation");
+    if (o.latitude_deg.has_value() != o.longitude_deg.has_value())
+        throw CliError("sky: give --latitude and --longitude together");
+    if (!o.latitude_deg && !base.sun.place)
+        throw CliError("sky: --time-range needs a place: --latitude/--longitude, or [sun] latitude_deg/longitude_deg/"
+                       "time in the scene");
+    if (o.output.find('#') == std::string::npos)
+        throw CliError("sky: -o '" + o.output + "': a sequence's output must contain #### for the frame number "
+                       "(e.g. out/sky_####.exr)");
+    const Sequence q = parse_sequence(o);
+    const double lat = o.latitude_deg ? *o.latitude_deg : base.sun.place->latitude_deg;
+    const double lon = o.longitude_deg ? *o.longitude_deg : base.sun.place->longitude_deg;
+    SunCliOptions sun = o.sun;
+    if (!sun.delta_t_s && base.sun.place && !o.latitude_deg) sun.delta_t_s = base.sun.place->delta_t_s;
+    const std::string csv_path = o.frames_csv.empty() ? default_csv_path(o.output, q) : o.frames_csv;
+
+    // Every frame's sun first: a bad place or time fails before any rendering.
+    struct Frame {
+        int number;
+        UtcTime time;
+        SolarPosition position;
+        std::string path;
+    };
+    std::vector<Frame> frames;
+    for (int k = q.first; k <= q.last; ++k) {
+        const UtcTime t = add_seconds(q.start, q.step_s * double(k - 1));
+        try {
+            frames.push_back({k, t, solar_position(solar_input(sun, lat, lon, t, "sky")), frame_path(o.output, k)});
+        } catch (const SolarPositionError& e) {
+            throw CliError(std::string("sky: ") + e.what());
+        }
+    }
+    for (const Frame& f : frames) check_exr_destination(f.path);
+
+    CancelFlag cancel;
+    InterruptGuard guard(cancel);
+    const bool show = stderr_is_terminal() && !o.quiet;
+    const auto t0 = std::chrono::steady_clock::now();
+    std::optional<MultipleScattering> tables;
+    if (settings.multiple_scattering) {
+        ProgressBar bar("sky: multiple-scattering tables", 0, show);
+        RenderHooks hooks;
+        hooks.cancel = &cancel;
+        hooks.work_done = [&bar](std::size_t n, std::size_t total) {
+            bar.set_total(total);
+            bar.advance(n);
+        };
+        tables = sky_multiple_scattering(base, settings, hooks);
+    }
+    std::string csv = "frame,utc,latitude_deg,longitude_deg," + std::string(kSunAngleColumns) +
+                      ",sun_strength,sun_color_r,sun_color_g,sun_color_b,sun_angle_deg,file\n";
+    for (const Frame& f : frames) {
+        Scene scene = base;
+        scene.sun.elevation_deg = f.position.blender_elevation_deg;
+        scene.sun.azimuth_deg = f.position.blender_rotation_deg;
+        scene.sun.place = SunPlace{lat, lon, f.time, sun.delta_t_s};
+        validate(scene);
+        FloatImage image;
+        {
+            ProgressBar bar("sky frame " + std::to_string(f.number) + " (" + std::to_string(&f - frames.data() + 1) +
+                                "/" + std::to_string(frames.size()) + ")",
+                            0, show);
+            RenderHooks hooks;
+            hooks.cancel = &cancel;
+            hooks.work_done = [&bar](std::size_t n, std::size_t total) {
+                bar.set_total(total);
+                bar.advance(n);
+            };
+            image = render_sky(scene, settings, hooks, tables ? &*tables : nullptr);
+        }
+        if (cancel.requested())
+            throw Cancelled("sky: cancelled; frame " + std::to_string(f.number) + " and the CSV not written");
+        // OpenImageIO stamps EXRs with the wall-clock DateTime unless one is given: a frame gets
+        // the moment it shows instead, so the same frame is the same file on any machine (shards).
+        ImageMetadata metadata = sky_metadata(scene, settings);
+        const std::string shown = format_utc(f.time);  // YYYY-MM-DDThh:mm:ss[.fff]Z
+        metadata.emplace_back("DateTime", shown.substr(0, 4) + ":" + shown.substr(5, 2) + ":" + shown.substr(8, 2) +
+                                              " " + shown.substr(11, 8));
+        write_exr_atomic(f.path, image, metadata);
+        const SunLight light = sun_light_at_observer(scene, settings.chapman);
+        const glm::dvec3 colour = light.lamp_colour();
+        csv += std::to_string(f.number) + "," + format_utc(f.time) + "," + format_place(lat) + "," +
+               format_place(lon) + "," + sun_angle_fields(f.position) + "," + format_g17(light.lamp_strength()) +
+               "," + format_g17(colour.x) + "," + format_g17(colour.y) + "," + format_g17(colour.z) + "," +
+               format_g17(light.angular_diameter_deg) + "," + std::filesystem::path(f.path).filename().string() +
+               "\n";
+    }
+    write_text_atomic(csv_path, csv);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!o.quiet)
+        std::fprintf(stderr, "sky: wrote frames %d-%d of %d (%dx%d) and %s (%.4f s, tables %s)\n", q.first, q.last,
+                     q.count, settings.width, settings.height, csv_path.c_str(), seconds,
+                     settings.multiple_scattering ? "computed once" : "not used");
+}
+
 }  // namespace
 
 void add_sky_command(CLI::App& app) {
@@ -171,6 +397,15 @@ void add_sky_command(CLI::App& app) {
     cmd->add_flag("--no-multiple", o->no_multiple, "Single scattering only (no multiple-scattering tables)");
     add_ms_options(cmd, o->ms);
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
+    cmd->add_option("--time-range", o->time_range,
+                    "Sequence: START,END in ISO 8601 UTC (with --fps); -o must contain #### (docs/sun.md)");
+    cmd->add_option("--fps", o->fps, "Sequence: frames per second of solar time, or A/B (1/600 = every 10 min)");
+    cmd->add_option("--frames", o->frames, "Sequence: render only frames A-B (1-based): a shard of the sequence");
+    cmd->add_option("--latitude", o->latitude_deg, "Sequence: place latitude, degrees  [default: the scene's [sun]]");
+    cmd->add_option("--longitude", o->longitude_deg, "Sequence: place longitude, degrees east  [default: the scene's]");
+    cmd->add_option("--frames-csv", o->frames_csv,
+                    "Sequence: the per-frame CSV  [default: beside the frames, e.g. out/sky.csv]");
+    add_sun_options(cmd, o->sun, false);
 
     cmd->callback([o, list_presets] {
         if (*list_presets) {
@@ -182,6 +417,7 @@ void add_sky_command(CLI::App& app) {
         if (o->output.empty()) throw CliError("sky: -o/--output is required");
         Scene scene = o->preset.empty() ? load_scene_file(o->scene_path) : load_preset(o->preset);
         apply_sky_overrides(scene, o->sun_elevation_deg, o->sun_rotation_deg, o->altitude_m, o->basis, o->wavelengths);
+        if (o->sun_elevation_deg || o->sun_rotation_deg) scene.sun.place.reset();  // the angles given win
 
         SkySettings settings;
         settings.width = o->width;
@@ -202,6 +438,14 @@ void add_sky_command(CLI::App& app) {
             throw CliError(std::string("sky: --") + e.what());
         }
         validate(scene);
+        if (!o->time_range.empty()) {
+            render_sequence(*o, scene, settings);
+            return;
+        }
+        if (!o->fps.empty() || !o->frames.empty() || o->latitude_deg || o->longitude_deg || !o->frames_csv.empty() ||
+            o->sun.delta_t_s || o->sun.delta_ut1_s)
+            throw CliError("sky: --fps, --frames, --latitude, --longitude, --frames-csv, --delta-t and --delta-ut1 "
+                           "apply to sequences (--time-range)");
         // Fail on an unwritable destination now, not after the render.
         check_exr_destination(o->output);
 

@@ -71,6 +71,37 @@ std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<st
     return rows;
 }
 
+std::vector<TextRow> read_text_rows(std::istream& in, const std::vector<std::string>& names) {
+    std::vector<TextRow> rows;
+    std::string line;
+    size_t line_no = 0;
+    bool first = true;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const std::string_view l = trim(line);
+        if (l.empty() || l.front() == '#') continue;
+        const auto fields = split(l);
+        double probe;
+        if (first && !parse_double(fields[0], probe)) {  // a header line
+            first = false;
+            continue;
+        }
+        first = false;
+        if (fields.size() != names.size()) {
+            std::string expect;
+            for (const auto& n : names) expect += (expect.empty() ? "" : ",") + n;
+            throw CliError("line " + std::to_string(line_no) + ": expected " + std::to_string(names.size()) +
+                           " comma-separated values (" + expect + "), got " + std::to_string(fields.size()));
+        }
+        TextRow row{line_no, {}};
+        for (const auto f : fields) row.fields.emplace_back(trim(f));
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+bool parse_finite_number(std::string_view text, double& out) { return parse_double(text, out) && std::isfinite(out); }
+
 std::vector<double> parse_number_list(const std::string& text, const std::string& what, const std::string& kind,
                                       bool (*ok)(double)) {
     if (trim(text).empty()) throw CliError(what + ": empty; give " + kind + " values separated by commas");

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <istream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace airmass::cli {
@@ -18,6 +19,19 @@ struct NumericRow {
 // header (it is skipped when its first field is not a number). Throws CliError naming
 // the line and the field on anything else.
 std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<std::string>& column_names);
+
+// Rows of exactly names.size() comma-separated fields, each trimmed of blanks (for inputs
+// that mix numbers and text, e.g. `airmass sun`'s latitude_deg,longitude_deg,utc). Comments,
+// blank lines and the optional header as read_numeric_rows; a wrong field count throws
+// CliError naming the line.
+struct TextRow {
+    std::size_t line;
+    std::vector<std::string> fields;
+};
+std::vector<TextRow> read_text_rows(std::istream& in, const std::vector<std::string>& column_names);
+
+// A finite number as read_numeric_rows accepts it (blanks around, a leading '+').
+bool parse_finite_number(std::string_view text, double& out);
 
 // A comma-separated list of finite numbers given on the command line ("680,550, 440"),
 // surrounding blanks allowed. `what` names the option in errors ("render: --box"); `kind`

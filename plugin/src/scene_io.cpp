@@ -509,8 +509,56 @@ private:
     Sun sun(const toml::table& t) {
         TableReader r(t, "sun", sources_);
         Sun s;
-        s.elevation_deg = r.number("elevation_deg", s.elevation_deg);
-        s.azimuth_deg = r.number("azimuth_deg", s.azimuth_deg);
+        // The sun's direction: elevation_deg/azimuth_deg, or latitude_deg/longitude_deg/time
+        // (+ delta_t_s) resolved here by the Solar Position Algorithm — never both.
+        const std::vector<std::string_view> angle_keys = {"elevation_deg", "azimuth_deg"};
+        const std::vector<std::string_view> place_keys = {"latitude_deg", "longitude_deg", "time", "delta_t_s"};
+        const auto first_of = [&](const std::vector<std::string_view>& keys) -> std::optional<std::string_view> {
+            for (std::string_view k : keys)
+                if (r.has(k)) return k;
+            return std::nullopt;
+        };
+        const auto angle_key = first_of(angle_keys);
+        const auto place_key = first_of(place_keys);
+        if (angle_key && place_key)
+            r.fail(r.take(*place_key), *place_key,
+                   ": the sun is given both by angles (sun." + std::string(*angle_key) +
+                       ") and by place and time; use elevation_deg/azimuth_deg or latitude_deg/longitude_deg/time, "
+                       "not both");
+        if (place_key) {
+            for (std::string_view k : {"latitude_deg", "longitude_deg", "time"})
+                if (!r.has(k))
+                    r.missing(k, "the sun's place and time are latitude_deg, longitude_deg and time together; sun." +
+                                     std::string(*place_key) + " is set");
+            SunPlace place;
+            place.latitude_deg = r.number("latitude_deg");
+            place.longitude_deg = r.number("longitude_deg");
+            const std::string time = r.string("time");
+            std::string why;
+            const auto t = try_parse_utc(time, &why);
+            if (!t) r.fail(r.take("time"), "time", " = " + in_quotes(time) + ": " + why);
+            place.time = *t;
+            place.delta_t_s = r.opt_number("delta_t_s");
+            SolarPositionInput in;
+            in.latitude_deg = place.latitude_deg;
+            in.longitude_deg = place.longitude_deg;
+            in.time = place.time;
+            in.delta_t_s = place.delta_t_s;
+            SolarPosition pos;
+            try {
+                pos = solar_position(in);
+            } catch (const SolarPositionError& e) {
+                const std::string what = e.what();
+                const std::string key = what.substr(0, what.find(' '));
+                r.fail(r.take(key), key, what.substr(key.size()));
+            }
+            s.elevation_deg = pos.blender_elevation_deg;
+            s.azimuth_deg = pos.blender_rotation_deg;
+            s.place = place;
+        } else {
+            s.elevation_deg = r.number("elevation_deg", s.elevation_deg);
+            s.azimuth_deg = r.number("azimuth_deg", s.azimuth_deg);
+        }
         s.angular_radius_deg = r.number("angular_radius_deg", s.angular_radius_deg);
         const double d_au = r.number("distance_au", 1.0);
         require_range(std::isfinite(d_au) && d_au > 0.0 && d_au <= 1000.0, "sun.distance_au", d_au,
@@ -851,6 +899,8 @@ const std::vector<std::pair<std::vector<std::string_view>, std::vector<std::stri
         {{"extinction", "single_scattering_albedo"}, {"scattering", "absorption"}},
         {{"values_per_m"}, {"cross_sections_m2", "number_density_per_m3", "column_du"}},
         {{"number_density_per_m3"}, {"column_du"}},
+        // [sun]: angles or place and time (a file giving a place replaces a preset's angles)
+        {{"elevation_deg", "azimuth_deg"}, {"latitude_deg", "longitude_deg", "time", "delta_t_s"}},
     };
     return groups;
 }
@@ -1168,6 +1218,12 @@ std::string scene_to_json(const Scene& scene) {
                 {"azimuth_deg", scene.sun.azimuth_deg},
                 {"angular_radius_deg", scene.sun.angular_radius_deg},
                 {"irradiance", std::move(irradiance)}};
+    if (const auto& p = scene.sun.place) {
+        j["sun"]["place"] = {{"latitude_deg", p->latitude_deg},
+                             {"longitude_deg", p->longitude_deg},
+                             {"time", format_utc(p->time)}};
+        if (p->delta_t_s) j["sun"]["place"]["delta_t_s"] = *p->delta_t_s;
+    }
     j["observer"] = {{"altitude_m", scene.observer.altitude_m}};
     if (scene.camera) {
         const Camera& c = *scene.camera;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "airmass/chapman.hpp"
+#include "airmass/solar_position.hpp"
 
 namespace airmass {
 
@@ -72,7 +73,20 @@ struct Planet {
     double ground_albedo = 0.1;
 };
 
+// A place on Earth and a moment the sun is computed from (solar_position.hpp; the scene file's
+// [sun] latitude_deg, longitude_deg, time). Topocentric, no refraction, ΔT as given or
+// Espenak–Meeus; the scene's frame has +Y north and +X east.
+struct SunPlace {
+    double latitude_deg = 0.0;
+    double longitude_deg = 0.0;
+    UtcTime time;
+    std::optional<double> delta_t_s;
+};
+
 struct Sun {
+    // With `place`, elevation_deg and azimuth_deg are the angles resolved from it (so
+    // everything downstream reads them as before).
+    std::optional<SunPlace> place;
     double elevation_deg = 45.0;     // above the observer's horizon, [−90, 90]
     double azimuth_deg = 0.0;        // Blender Sky Texture "rotation": 0 → +Y, 90 → +X
     double angular_radius_deg = 0.2667;
