@@ -5,7 +5,7 @@
 // buffer. Long calls run on a worker thread while the calling thread reports progress,
 // so a host's callback always runs on the thread that called us (Python's GIL and
 // Blender's main-thread rules both need that).
-#include "airmass/evaluator.hpp"
+#include "airmass/sun_light.hpp"
 #include "airmass/version.hpp"
 #include "airmass/airmass_c.h"
 
@@ -325,37 +325,19 @@ int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char
     return guarded(message, message_size, [&] {
         require_struct(out, "sun_light");
         const Scene scene = build_scene(spec);
-        airmass::EvalSettings settings;
-        settings.chapman = chapman_from(chapman, settings.chapman, "chapman");
-        const std::vector<double> wavelengths = airmass::basis_wavelengths_nm(scene.basis);
-        const airmass::Evaluator evaluator(airmass::compile_atmosphere(scene, wavelengths, settings));
-
-        // Direct sunlight at the observer: E(λ)·T(λ) along the ray toward the sun (0 when the
-        // planet is in the way; the evaluator's one sun-ray computation), mapped to RGB
-        // exactly as the sky's sun disc is.
-        const glm::dvec3 sun = airmass::sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
-        std::vector<double> bottom(wavelengths.size());
-        const bool blocked = !evaluator.sun_light(scene.observer.altitude_m,
-                                                  airmass::ZenithAngle<double>::from_cos(sun.z), bottom);
-        const std::vector<double>& top = evaluator.atmosphere().sun_irradiance;
-        const airmass::SpectrumToRgb to_rgb = airmass::spectrum_to_rgb(scene.basis);
-        const airmass::Vec3d rgb = to_rgb.apply(bottom);
-        const airmass::Vec3d rgb_top = to_rgb.apply(top);
-
+        const airmass::SunLight light =
+            airmass::sun_light_at_observer(scene, chapman_from(chapman, airmass::EvalSettings{}.chapman, "chapman"));
         airmass_sun_light result{};
         result.struct_size = sizeof(airmass_sun_light);
-        result.direction[0] = sun.x;
-        result.direction[1] = sun.y;
-        result.direction[2] = sun.z;
         for (int c = 0; c < 3; ++c) {
-            // Clip the tiny negative values a wide-gamut spectrum can give after the matrix.
-            result.irradiance_rgb[c] = std::max(0.0, rgb[c]);
-            result.irradiance_top_rgb[c] = std::max(0.0, rgb_top[c]);
+            result.direction[c] = light.direction[c];
+            result.irradiance_rgb[c] = light.irradiance_rgb[c];
+            result.irradiance_top_rgb[c] = light.irradiance_top_rgb[c];
             result.transmittance_rgb[c] =
                 result.irradiance_top_rgb[c] > 0.0 ? result.irradiance_rgb[c] / result.irradiance_top_rgb[c] : 0.0;
         }
-        result.angular_diameter_deg = 2.0 * scene.sun.angular_radius_deg;
-        result.below_horizon = blocked ? 1 : 0;
+        result.angular_diameter_deg = light.angular_diameter_deg;
+        result.below_horizon = light.below_horizon ? 1 : 0;
         *out = result;
     });
 }

@@ -1,13 +1,12 @@
+// sun_light_at_observer (sun_light.hpp): the evaluator's sun_light at the observer, in RGB.
 #include "airmass/sun_light.hpp"
 
 #include <algorithm>
-#include <limits>
 #include <vector>
 
 #include "airmass/atmosphere.hpp"
 #include "airmass/color.hpp"
-#include "airmass/geometry.hpp"
-#include "airmass/optical_depth.hpp"
+#include "airmass/evaluator.hpp"
 #include "airmass/sky.hpp"
 
 namespace airmass {
@@ -16,25 +15,16 @@ SunLight sun_light_at_observer(const Scene& scene, ChapmanMethod chapman) {
     EvalSettings settings;
     settings.chapman = chapman;
     const std::vector<double> wavelengths = basis_wavelengths_nm(scene.basis);
-    const Atmosphere atmosphere = compile_atmosphere(scene, wavelengths, settings);
+    const Evaluator evaluator(compile_atmosphere(scene, wavelengths, settings));
 
-    // Direct sunlight at the observer: E(λ)·T(λ) with T along the ray toward the sun (0 when
-    // the planet is in the way), mapped to RGB exactly as the sky's sun disc is.
+    // Direct sunlight at the observer: E(λ)·T(λ) along the ray toward the sun (0 when the
+    // planet is in the way; the evaluator's one sun-ray computation), mapped to RGB exactly
+    // as the sky's sun disc is.
     const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
-    const double r0 = scene.planet.radius_m + scene.observer.altitude_m;
-    const auto ray =
-        PlanetRay<double>::from_vectors(scene.planet.radius_m, Vec3<double>(0, 0, r0), Vec3<double>(sun.x, sun.y, sun.z));
-    std::vector<double> t(wavelengths.size(), 1.0);
-    const bool blocked = hits_ground(ray);
-    if (blocked)
-        std::fill(t.begin(), t.end(), 0.0);
-    else
-        transmittance(atmosphere, ray, 0.0, std::numeric_limits<double>::infinity(), t);
-    std::vector<double> top(wavelengths.size()), bottom(wavelengths.size());
-    for (std::size_t w = 0; w < wavelengths.size(); ++w) {
-        top[w] = atmosphere.sun_irradiance[w];
-        bottom[w] = top[w] * t[w];
-    }
+    std::vector<double> bottom(wavelengths.size());
+    const bool blocked =
+        !evaluator.sun_light(scene.observer.altitude_m, ZenithAngle<double>::from_cos(sun.z), bottom);
+    const std::vector<double>& top = evaluator.atmosphere().sun_irradiance;
     const SpectrumToRgb to_rgb = spectrum_to_rgb(scene.basis);
     const Vec3d rgb = to_rgb.apply(bottom);
     const Vec3d rgb_top = to_rgb.apply(top);

@@ -1,6 +1,6 @@
-// The direct sunlight at the observer, for a Sun lamp beside a sky texture: the same
-// quantity the C ABI's airmass_sun_light_at_observer returns to the Blender add-on
-// (plugin/capi/airmass_c.cpp computes it the same way, step for step; it can call this).
+// The direct sunlight at the observer, for a Sun lamp beside a sky texture: what the C ABI's
+// airmass_sun_light_at_observer returns to the Blender add-on and `airmass sky` sequences
+// write per frame (Evaluator::sun_light at the observer, evaluator.hpp, mapped to RGB).
 #pragma once
 
 #include <glm/vec3.hpp>
