@@ -100,7 +100,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     char* json = nullptr;
     const bool valid = status_ok(airmass_validate_scene(&spec, in.ConsumeBool() ? &json : nullptr, msg, message_size));
     if (json) {
-        (void)nlohmann::json::parse(json);
+        require(nlohmann::json::accept(json), "returned JSON does not parse");
         airmass_string_free(json);
         json = nullptr;
     }
@@ -140,7 +140,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         airmass::fuzz::require_finite_non_negative<float>(std::span(rgba.data(), float_count), "sky pixel");
     }
     if (json) {
-        (void)nlohmann::json::parse(json);
+        require(nlohmann::json::accept(json), "returned JSON does not parse");
         airmass_string_free(json);
         json = nullptr;
     }
@@ -160,7 +160,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     vdb.tile_voxels = airmass::fuzz::pick_int(in, -1, 64);
 
     if (status_ok(airmass_analytic_density_json(&spec, &vdb, &json, msg, message_size))) {
-        (void)nlohmann::json::parse(json);
+        require(nlohmann::json::accept(json), "returned JSON does not parse");
     }
     if (json) airmass_string_free(json), json = nullptr;
 
