@@ -26,6 +26,8 @@ PACKAGES=(
   # the macOS library (scripts/build-macos.sh): ld64.lld links it, llvm-lipo merges the two
   # architectures, llvm-objdump/-nm check it; Zig itself comes from npm (below)
   lld-14 llvm-14
+  # the fuzz targets (scripts/run-fuzz.sh, tests/fuzz): clang with libFuzzer and the sanitizer runtimes
+  clang libclang-rt-14-dev
 )
 
 missing=()

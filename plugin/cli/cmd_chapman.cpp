@@ -47,15 +47,7 @@ void add_chapman_command(CLI::App& app) {
         }
         const auto method = chapman_method_from_name(*method_name);
         if (!method) throw CliError("chapman: unknown --method '" + *method_name + "' (see --list-methods)");
-        const auto rows = read_numeric_rows(std::cin, {"x", "chi_deg"});
-        for (const auto& r : rows) {
-            if (!(r.values[0] > 0.0))
-                throw CliError("chapman: line " + std::to_string(r.line) + ": x must be > 0, got " +
-                               format_g17(r.values[0]));
-            if (!(r.values[1] >= 0.0 && r.values[1] <= 180.0))
-                throw CliError("chapman: line " + std::to_string(r.line) + ": chi_deg must be in [0, 180], got " +
-                               format_g17(r.values[1]));
-        }
+        const auto rows = read_chapman_rows(std::cin, *precision == "float");
         if (*precision == "float") evaluate_rows<float>(*method, rows);
         else evaluate_rows<double>(*method, rows);
     });

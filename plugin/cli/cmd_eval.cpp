@@ -70,16 +70,6 @@ std::vector<double> parse_wavelength_list(const std::string& spec) {
                              [](double v) { return v > 0.0 && v < 1e6; });
 }
 
-void check_row(const NumericRow& r) {
-    const auto fail = [&](const char* name, double v, const char* range) {
-        throw CliError("eval: line " + std::to_string(r.line) + ": " + name + " = " + format_g17(v) + ": " + range);
-    };
-    if (!(r.values[0] >= 0.0 && r.values[0] <= 1e9)) fail("altitude_m", r.values[0], "must be in [0, 1e9]");
-    if (!(r.values[1] >= 0.0 && r.values[1] <= 180.0)) fail("view_zenith_deg", r.values[1], "must be in [0, 180]");
-    if (!(r.values[2] >= 0.0 && r.values[2] <= 180.0)) fail("sun_zenith_deg", r.values[2], "must be in [0, 180]");
-    if (!(r.values[3] >= -360.0 && r.values[3] <= 360.0)) fail("azimuth_deg", r.values[3], "must be in [-360, 360]");
-}
-
 }  // namespace
 
 void add_eval_command(CLI::App& app) {
@@ -130,8 +120,7 @@ void add_eval_command(CLI::App& app) {
             set_constant_irradiance(atm, *opt->solar_irradiance);
         }
 
-        const auto rows = read_numeric_rows(std::cin, {"altitude_m", "view_zenith_deg", "sun_zenith_deg", "azimuth_deg"});
-        for (const auto& r : rows) check_row(r);
+        const auto rows = read_eval_rows(std::cin);
 
         const std::size_t nw = wavelengths.size();
         const std::size_t n = rows.size() * nw;

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string_view>
 
 #include "commands.hpp"
@@ -100,7 +101,39 @@ std::vector<TextRow> read_text_rows(std::istream& in, const std::vector<std::str
     return rows;
 }
 
+std::vector<NumericRow> read_chapman_rows(std::istream& in, bool single_precision) {
+    auto rows = read_numeric_rows(in, {"x", "chi_deg"});
+    for (const auto& r : rows) {
+        if (!(r.values[0] > 0.0))
+            throw CliError("chapman: line " + std::to_string(r.line) + ": x must be > 0, got " + format_g17(r.values[0]));
+        const float xf = static_cast<float>(r.values[0]);
+        if (single_precision && !(xf > 0.0f && xf <= std::numeric_limits<float>::max()))
+            throw CliError("chapman: line " + std::to_string(r.line) + ": x must be in [" +
+                           format_g17(std::numeric_limits<float>::denorm_min()) + ", " +
+                           format_g17(std::numeric_limits<float>::max()) + "] with --precision float, got " +
+                           format_g17(r.values[0]));
+        if (!(r.values[1] >= 0.0 && r.values[1] <= 180.0))
+            throw CliError("chapman: line " + std::to_string(r.line) + ": chi_deg must be in [0, 180], got " +
+                           format_g17(r.values[1]));
+    }
+    return rows;
+}
+
 bool parse_finite_number(std::string_view text, double& out) { return parse_double(text, out) && std::isfinite(out); }
+
+std::vector<NumericRow> read_eval_rows(std::istream& in) {
+    auto rows = read_numeric_rows(in, {"altitude_m", "view_zenith_deg", "sun_zenith_deg", "azimuth_deg"});
+    for (const auto& r : rows) {
+        const auto fail = [&](const char* name, double v, const char* range) {
+            throw CliError("eval: line " + std::to_string(r.line) + ": " + name + " = " + format_g17(v) + ": " + range);
+        };
+        if (!(r.values[0] >= 0.0 && r.values[0] <= 1e9)) fail("altitude_m", r.values[0], "must be in [0, 1e9]");
+        if (!(r.values[1] >= 0.0 && r.values[1] <= 180.0)) fail("view_zenith_deg", r.values[1], "must be in [0, 180]");
+        if (!(r.values[2] >= 0.0 && r.values[2] <= 180.0)) fail("sun_zenith_deg", r.values[2], "must be in [0, 180]");
+        if (!(r.values[3] >= -360.0 && r.values[3] <= 360.0)) fail("azimuth_deg", r.values[3], "must be in [-360, 360]");
+    }
+    return rows;
+}
 
 std::vector<double> parse_number_list(const std::string& text, const std::string& what, const std::string& kind,
                                       bool (*ok)(double)) {

@@ -33,6 +33,15 @@ std::vector<TextRow> read_text_rows(std::istream& in, const std::vector<std::str
 // A finite number as read_numeric_rows accepts it (blanks around, a leading '+').
 bool parse_finite_number(std::string_view text, double& out);
 
+// The stdin readers of the commands, rows read and checked (callable without the CLI: the fuzz
+// target tests/fuzz/fuzz_csv.cpp). Throw CliError naming the line, the column and its range.
+//   `airmass chapman`: x,chi_deg with x > 0 and chi_deg in [0, 180]; with `single_precision`
+//   (--precision float) x must also be a positive float (in [1.4e-45, 3.4e38]).
+std::vector<NumericRow> read_chapman_rows(std::istream& in, bool single_precision = false);
+//   `airmass eval`: altitude_m in [0, 1e9], view_zenith_deg and sun_zenith_deg in [0, 180],
+//   azimuth_deg in [-360, 360].
+std::vector<NumericRow> read_eval_rows(std::istream& in);
+
 // A comma-separated list of finite numbers given on the command line ("680,550, 440"),
 // surrounding blanks allowed. `what` names the option in errors ("render: --box"); `kind`
 // says what each number must be ("a finite number", "a wavelength in nm (a number in

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "chapman_internal.hpp"
 
@@ -92,12 +93,18 @@ struct AirmassTable {
     //     w = b q / D,   v = mu (1 + Y) a q / D,   B = c a b / D.
     template <class T>
     T upper(T x, T mu) const {
+        if (!(x <= std::numeric_limits<T>::max())) return mu > T(0) ? T(1) / mu : x;  // the plane-parallel limit
         const T sx = std::sqrt(x);
         const T Y = sx * T(0.70710678118654752);
         const T c = airmass_base_horizontal(sx);
         const T a = T(1) + sx, b = T(1) + mu * Y, q = (c - T(1)) * mu + T(1);
         const T ab = a * b;
-        const T inv = T(1) / (ab * q);
+        const T D = ab * q;
+        // x beyond ~1e200 (double) or ~1e29 (float): D = a b q overflows and the shared division
+        // would give 0 · inf = NaN table coordinates; divide separately (w = 1/a, v = mu (1 + Y)/b,
+        // base = c/q), which is exact and finite there.
+        if (!(D <= std::numeric_limits<T>::max())) return c / q * interpolate(T(1) / a, std::min(mu * (T(1) + Y) / b, T(1)));
+        const T inv = T(1) / D;
         const T w = b * q * inv;
         const T v = mu * (T(1) + Y) * a * q * inv;
         const T base = c * ab * inv;

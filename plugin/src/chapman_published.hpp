@@ -22,7 +22,9 @@ inline T exp2pp_impl(T x) {
     const T e = std::round(x);
     const T t = x - e;
     const T m = (t * t + c0 * t + c1) / (c2 * t + c1);
-    return std::ldexp(m, static_cast<int>(e));
+    // ldexp saturates long before |e| = 2000; clamping first keeps the int conversion defined for
+    // any x (found by fuzz_csv: 'airmass chapman --method schuler2012-rigged-exp2pp', x = 1e300).
+    return std::ldexp(m, static_cast<int>(e > T(2000) ? T(2000) : (e >= T(-2000) ? e : T(-2000))));
 }
 
 namespace detail {

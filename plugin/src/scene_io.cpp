@@ -1092,8 +1092,9 @@ double vertical_column_m(const DensityProfile& p, double thickness_m) {
     const auto piecewise = [thickness_m](const std::vector<std::pair<double, double>>& knots) {
         double sum = 0.0;
         for (std::size_t i = 0; i + 1 < knots.size(); ++i) {
-            const auto [x0, y0] = knots[i];
-            const auto [x1, y1] = knots[i + 1];
+            // Plain copies, not structured bindings: clang < 16 cannot capture those (the fuzz build).
+            const double x0 = knots[i].first, y0 = knots[i].second;
+            const double x1 = knots[i + 1].first, y1 = knots[i + 1].second;
             const double a = std::max(x0, 0.0), b = std::min(x1, thickness_m);
             if (!(b > a) || !(x1 > x0)) continue;
             const auto y = [&](double x) { return y0 + (y1 - y0) * (x - x0) / (x1 - x0); };
