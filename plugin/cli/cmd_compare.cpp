@@ -593,12 +593,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             FloatImage sky;
             {
                 ProgressBar bar("sky texture " + std::to_string(w) + "x" + std::to_string(w / 2), 0, bar_on);
-                RenderHooks hooks;
-                hooks.cancel = &cancel;
-                hooks.work_done = [&bar](std::size_t n, std::size_t total) {
-                    bar.set_total(total);
-                    bar.advance(n);
-                };
+                const RenderHooks hooks = progress_hooks(bar, cancel);
                 sky = render_sky(sky_scene, ss, hooks);
             }
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -277,9 +277,7 @@ void add_render_command(CLI::App& app) {
         FloatImage image;
         {
             ProgressBar bar("render", std::size_t(settings.camera->height), stderr_is_terminal() && !o->quiet);
-            RenderHooks hooks;
-            hooks.cancel = &cancel;
-            hooks.work_done = [&bar](std::size_t n, std::size_t) { bar.advance(n); };
+            const RenderHooks hooks = progress_hooks(bar, cancel);
             image = render_camera(scene, settings, hooks);
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -306,12 +306,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
     std::optional<MultipleScattering> tables;
     if (settings.multiple_scattering) {
         ProgressBar bar("sky: multiple-scattering tables", 0, show);
-        RenderHooks hooks;
-        hooks.cancel = &cancel;
-        hooks.work_done = [&bar](std::size_t n, std::size_t total) {
-            bar.set_total(total);
-            bar.advance(n);
-        };
+        const RenderHooks hooks = progress_hooks(bar, cancel);
         tables = sky_multiple_scattering(base, settings, hooks);
     }
     std::string csv = "frame,utc,latitude_deg,longitude_deg," + std::string(kSunAngleColumns) +
@@ -327,12 +322,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
             ProgressBar bar("sky frame " + std::to_string(f.number) + " (" + std::to_string(&f - frames.data() + 1) +
                                 "/" + std::to_string(frames.size()) + ")",
                             0, show);
-            RenderHooks hooks;
-            hooks.cancel = &cancel;
-            hooks.work_done = [&bar](std::size_t n, std::size_t total) {
-                bar.set_total(total);
-                bar.advance(n);
-            };
+            const RenderHooks hooks = progress_hooks(bar, cancel);
             image = render_sky(scene, settings, hooks, tables ? &*tables : nullptr);
         }
         if (cancel.requested())
@@ -456,12 +446,7 @@ void add_sky_command(CLI::App& app) {
         {
             ProgressBar bar("sky " + std::to_string(settings.width) + "x" + std::to_string(settings.height),
                             0, stderr_is_terminal() && !o->quiet);
-            RenderHooks hooks;
-            hooks.cancel = &cancel;
-            hooks.work_done = [&bar](std::size_t n, std::size_t total) {
-                bar.set_total(total);
-                bar.advance(n);
-            };
+            const RenderHooks hooks = progress_hooks(bar, cancel);
             image = render_sky(scene, settings, hooks);
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -59,4 +59,15 @@ private:
     std::mutex draw_mutex_;
 };
 
+// The library's progress/cancel hooks (progress.hpp) drawn on `bar` and cancelled by `cancel`.
+inline RenderHooks progress_hooks(ProgressBar& bar, const CancelFlag& cancel) {
+    RenderHooks hooks;
+    hooks.cancel = &cancel;
+    hooks.work_done = [&bar](std::size_t n, std::size_t total) {
+        bar.set_total(total);
+        bar.advance(n);
+    };
+    return hooks;
+}
+
 }  // namespace airmass
