@@ -39,8 +39,12 @@ std::vector<std::string_view> split(std::string_view line) {
 
 }  // namespace
 
-std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<std::string>& names) {
-    std::vector<NumericRow> rows;
+namespace {
+
+// Every data row of a CSV stream (comments, blank lines and an optional header skipped),
+// checked to have exactly names.size() fields: on_row(line number, fields).
+template <class OnRow>
+void for_each_row(std::istream& in, const std::vector<std::string>& names, const OnRow& on_row) {
     std::string line;
     size_t line_no = 0;
     bool first = true;
@@ -61,6 +65,15 @@ std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<st
             throw CliError("line " + std::to_string(line_no) + ": expected " + std::to_string(names.size()) +
                            " comma-separated values (" + expect + "), got " + std::to_string(fields.size()));
         }
+        on_row(line_no, fields);
+    }
+}
+
+}  // namespace
+
+std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<std::string>& names) {
+    std::vector<NumericRow> rows;
+    for_each_row(in, names, [&](size_t line_no, const auto& fields) {
         NumericRow row{line_no, std::vector<double>(fields.size())};
         for (size_t k = 0; k < fields.size(); ++k) {
             if (!parse_double(fields[k], row.values[k]) || !std::isfinite(row.values[k]))
@@ -68,36 +81,17 @@ std::vector<NumericRow> read_numeric_rows(std::istream& in, const std::vector<st
                                std::string(trim(fields[k])) + "'");
         }
         rows.push_back(std::move(row));
-    }
+    });
     return rows;
 }
 
 std::vector<TextRow> read_text_rows(std::istream& in, const std::vector<std::string>& names) {
     std::vector<TextRow> rows;
-    std::string line;
-    size_t line_no = 0;
-    bool first = true;
-    while (std::getline(in, line)) {
-        ++line_no;
-        const std::string_view l = trim(line);
-        if (l.empty() || l.front() == '#') continue;
-        const auto fields = split(l);
-        double probe;
-        if (first && !parse_double(fields[0], probe)) {  // a header line
-            first = false;
-            continue;
-        }
-        first = false;
-        if (fields.size() != names.size()) {
-            std::string expect;
-            for (const auto& n : names) expect += (expect.empty() ? "" : ",") + n;
-            throw CliError("line " + std::to_string(line_no) + ": expected " + std::to_string(names.size()) +
-                           " comma-separated values (" + expect + "), got " + std::to_string(fields.size()));
-        }
+    for_each_row(in, names, [&](size_t line_no, const auto& fields) {
         TextRow row{line_no, {}};
         for (const auto f : fields) row.fields.emplace_back(trim(f));
         rows.push_back(std::move(row));
-    }
+    });
     return rows;
 }
 
