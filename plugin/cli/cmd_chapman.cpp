@@ -25,7 +25,7 @@ void evaluate_rows(ChapmanMethod method, const std::vector<NumericRow>& rows) {
         out += format_g17(row.values[0]) + "," + format_g17(row.values[1]) + "," + format_g17(ch) + "," +
                format_g17(ln_ch) + "\n";
     }
-    std::fwrite(out.data(), 1, out.size(), stdout);
+    write_stdout(out, "chapman");
 }
 
 }  // namespace

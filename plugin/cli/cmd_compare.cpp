@@ -400,6 +400,11 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec || !fs::is_directory(dir)) throw CliError("compare: cannot create output directory " + dir.string());
+    try {
+        check_output_destination(dir / "job.json");  // the folder writable, before any render
+    } catch (const FileWriteError& e) {
+        throw CliError(std::string("compare: ") + e.what());
+    }
 
     // The plan: every step of this run, in order (the progress events' index / total).
     {
@@ -489,7 +494,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         check_cancel();
-        write_exr_atomic(file, img, render_metadata(scene, s));
+        write_exr_atomic(file, img, render_metadata(scene, s), &cancel);
         natives[name] = native_entry(scene, file.filename().string(), seconds, s);
         json done = events.event("render_done", name);
         done["ok"] = true;
@@ -597,7 +602,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
                 sky = render_sky(sky_scene, ss, hooks);
             }
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            write_exr_atomic(dir / "sky.exr", sky, sky_metadata(sky_scene, ss));
+            write_exr_atomic(dir / "sky.exr", sky, sky_metadata(sky_scene, ss), &cancel);
             const double off_axis_m = std::hypot(cam.pose.position_m.x, cam.pose.position_m.y);
             job["sky_texture"] = {{"file", (dir / "sky.exr").string()},
                                   {"width", w},

@@ -164,7 +164,7 @@ void add_eval_command(CLI::App& app) {
                 out += "\n";
             }
         }
-        std::fwrite(out.data(), 1, out.size(), stdout);
+        write_stdout(out, "eval");
     });
 }
 

@@ -284,7 +284,7 @@ void add_render_command(CLI::App& app) {
         if (cancel.requested()) throw Cancelled("render: cancelled; no file written");
         ImageMetadata meta = render_metadata(scene, settings);
         meta.emplace_back("airmass:render_seconds", std::to_string(seconds));
-        write_exr_atomic(o->output, image, meta);
+        write_exr_atomic(o->output, image, meta, &cancel);  // Ctrl-C until the rename: no file
         if (!o->quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %s, %.3f s)\n", o->output.c_str(), image.width, image.height,
                          settings.color == ColorModel::spectral ? "spectral" : "renderer RGB", seconds);

@@ -98,8 +98,7 @@ void add_sun_command(CLI::App& app) {
         }
         std::string out = "latitude_deg,longitude_deg,utc," + std::string(kSunAngleColumns) + "\n";
         for (const auto& l : lines) out += l + "\n";
-        std::fwrite(out.data(), 1, out.size(), stdout);
-        if (std::fflush(stdout) != 0) throw CliError("sun: cannot write the output");
+        write_stdout(out, "sun");
     });
 }
 

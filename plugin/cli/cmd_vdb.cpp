@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "airmass/atomic_file.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/terminal.hpp"
 #include "airmass/scene_io.hpp"
@@ -167,6 +168,15 @@ void add_vdb_command(CLI::App& app) {
 
         std::optional<tbb::global_control> threads;
         if (o->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(o->threads));
+        // Every destination checked before the expensive part (a second output's folder that
+        // cannot be written must not cost a finished .vdb first).
+        try {
+            for (const std::string* f : {&o->analytic, &o->pov})
+                if (!f->empty()) check_output_destination(*f);
+            if (!o->df3.empty()) check_output_destination(o->df3 + ".df3.inc");
+        } catch (const FileWriteError& e) {
+            throw CliError(std::string("vdb: ") + e.what());
+        }
         CancelFlag cancel;
         InterruptGuard guard(cancel);
 
@@ -198,11 +208,11 @@ void add_vdb_command(CLI::App& app) {
             }
         }
         if (!o->analytic.empty()) {
-            write_text_atomic(o->analytic, analytic_density_json(scene, opt));
+            write_text_atomic(o->analytic, analytic_density_json(scene, opt), &cancel);
             if (!o->quiet) std::printf("vdb: wrote %s\n", o->analytic.c_str());
         }
         if (!o->pov.empty()) {
-            write_text_atomic(o->pov, pov_include(scene, opt));
+            write_text_atomic(o->pov, pov_include(scene, opt), &cancel);
             if (!o->quiet) std::printf("vdb: wrote %s\n", o->pov.c_str());
         }
         if (!o->df3.empty()) {

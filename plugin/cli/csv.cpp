@@ -1,8 +1,10 @@
 #include "csv.hpp"
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <string_view>
 
@@ -148,6 +150,18 @@ std::string format_g17(double v) {
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.17g", v);
     return buf;
+}
+
+}  // namespace airmass::cli
+
+namespace airmass::cli {
+
+void write_stdout(std::string_view text, const char* command) {
+    errno = 0;
+    const bool ok = std::fwrite(text.data(), 1, text.size(), stdout) == text.size() && std::fflush(stdout) == 0;
+    if (!ok)
+        throw CliError(std::string(command) + ": cannot write the output" +
+                       (errno != 0 ? std::string(": ") + std::strerror(errno) : std::string()));
 }
 
 }  // namespace airmass::cli

@@ -53,4 +53,9 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
 // Shortest round-trip text for a double with 17 significant digits ("inf", "-inf", "nan" as such).
 std::string format_g17(double v);
 
+// Writes a command's whole CSV output to stdout and flushes it; CliError "<command>: cannot
+// write the output: <cause>" when that fails (a full disk behind a redirection, a closed pipe
+// reported as EPIPE), so the exit status says the output is incomplete.
+void write_stdout(std::string_view text, const char* command);
+
 }  // namespace airmass::cli

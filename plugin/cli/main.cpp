@@ -1,4 +1,5 @@
 // airmass: the command-line front end of libairmass.
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -12,6 +13,10 @@ int main(int argc, char** argv) {
         std::printf("airmass %s\n", airmass::version_string());
         return 0;
     }
+    // A file-size limit (ulimit -f) reached by a writer: the write fails with EFBIG and the
+    // writer reports it and removes its temporary (airmass/atomic_file.hpp), instead of
+    // SIGXFSZ ending the process with the temporary left behind.
+    std::signal(SIGXFSZ, SIG_IGN);
     CLI::App app{"airmass: a planet's atmosphere around a fast, well-tested Chapman function"};
     // Listed in --help; the fast path above answers it alone.
     app.set_version_flag("-V,--version", std::string("airmass ") + airmass::version_string());

@@ -1,34 +1,13 @@
-// OpenEXR writing through OpenImageIO, atomically (temporary file + rename).
+// OpenEXR writing through OpenImageIO, atomically (airmass/atomic_file.hpp).
 #include "airmass/image_io.hpp"
-
-#include <unistd.h>
 
 #include <OpenImageIO/imageio.h>
 
 #include <cctype>
-#include <cerrno>
-#include <cstring>
-#include <system_error>
 
 namespace airmass {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-fs::path parent_or_cwd(const fs::path& path) {
-    const fs::path dir = path.parent_path();
-    return dir.empty() ? fs::path(".") : dir;
-}
-
-}  // namespace
-
-fs::path exr_temporary_path(const fs::path& path) {
-    // Hidden, beside the destination (rename stays on one filesystem), unique per process,
-    // and still ending in ".exr" so any tool recognises it if it is ever left behind.
-    return parent_or_cwd(path) /
-           ("." + path.filename().string() + ".airmass-tmp-" + std::to_string(::getpid()) + ".exr");
-}
 
 void check_exr_destination(const fs::path& path) {
     if (path.empty()) throw ImageWriteError("output path is empty");
@@ -36,18 +15,15 @@ void check_exr_destination(const fs::path& path) {
     for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     if (ext != ".exr")
         throw ImageWriteError("output '" + path.string() + "': must end in .exr (OpenEXR is the only format written)");
-    const fs::path dir = parent_or_cwd(path);
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-        throw ImageWriteError("output '" + path.string() + "': directory '" + dir.string() + "' does not exist");
-    if (::access(dir.c_str(), W_OK | X_OK) != 0)
-        throw ImageWriteError("output '" + path.string() + "': directory '" + dir.string() +
-                              "' is not writable: " + std::strerror(errno));
-    if (fs::is_directory(path, ec))
-        throw ImageWriteError("output '" + path.string() + "' is a directory");
+    try {
+        check_output_destination(path);
+    } catch (const FileWriteError& e) {
+        throw ImageWriteError(e.what());
+    }
 }
 
-void write_exr_atomic(const fs::path& path, const FloatImage& image, const ImageMetadata& metadata) {
+void write_exr_atomic(const fs::path& path, const FloatImage& image, const ImageMetadata& metadata,
+                      const CancelFlag* cancel) {
     check_exr_destination(path);
     if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
         image.pixels.size() != std::size_t(image.width) * image.height * image.channels)
@@ -62,27 +38,26 @@ void write_exr_atomic(const fs::path& path, const FloatImage& image, const Image
     spec.attribute("oiio:ColorSpace", "Linear");
     for (const auto& [key, value] : metadata) spec.attribute(key, value);
 
-    const fs::path tmp = exr_temporary_path(path);
-    auto fail = [&](const std::string& what) {
-        std::error_code ec;
-        fs::remove(tmp, ec);
-        throw ImageWriteError("output '" + path.string() + "': " + what);
-    };
-    {
-        // The plugin is chosen from the destination's extension; the data goes to the temporary.
-        auto out = OIIO::ImageOutput::create(path.string());
-        if (!out) fail("no OpenEXR writer: " + OIIO::geterror());
-        if (!out->open(tmp.string(), spec)) fail("cannot open '" + tmp.string() + "': " + out->geterror());
-        if (!out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data())) {
-            const std::string err = out->geterror();
-            out->close();
-            fail("writing failed: " + err);
+    try {
+        AtomicOutputs outputs(cancel);  // removes the temporary on any failure
+        const fs::path tmp = outputs.add(path);
+        auto fail = [&](const std::string& what) { throw ImageWriteError("output '" + path.string() + "': " + what); };
+        {
+            // The plugin is chosen from the destination's extension; the data goes to the temporary.
+            auto out = OIIO::ImageOutput::create(path.string());
+            if (!out) fail("no OpenEXR writer: " + OIIO::geterror());
+            if (!out->open(tmp.string(), spec)) fail("cannot open '" + tmp.string() + "': " + out->geterror());
+            if (!out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data())) {
+                const std::string err = out->geterror();
+                out->close();
+                fail("writing failed: " + err);
+            }
+            if (!out->close()) fail("closing failed: " + out->geterror());
         }
-        if (!out->close()) fail("closing failed: " + out->geterror());
+        outputs.commit();
+    } catch (const FileWriteError& e) {
+        throw ImageWriteError(e.what());
     }
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) fail("cannot rename '" + tmp.string() + "' into place: " + ec.message());
 }
 
 FloatImage read_image(const fs::path& path, ImageMetadata* metadata) {

@@ -1335,4 +1335,5 @@ def main():
         raise SystemExit("Blender add-on tests failed: " + ", ".join(failures))
 
 
-main()
+if __name__ == "__main__":  # Blender runs --python scripts as __main__; test_operator_faults.py imports
+    main()

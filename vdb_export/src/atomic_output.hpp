@@ -1,36 +1,28 @@
-// A set of output files written atomically: each goes to a hidden temporary beside its
-// destination (same directory, so rename(2) is atomic), and all are renamed into place
-// only by commit(). Destroying the set without commit() removes every temporary, so a
-// failure or cancellation anywhere leaves no partial file.
+// vdb_export's side of airmass/atomic_file.hpp (the one atomic-write helper of every writer):
+// the same calls, with their FileWriteError reported as VdbError.
 #pragma once
 
 #include <filesystem>
-#include <string>
 #include <utility>
-#include <vector>
+
+#include "airmass/atomic_file.hpp"
+#include "airmass/vdb_export.hpp"
 
 namespace airmass::detail {
 
-// Throws VdbError unless `dest`'s directory exists and a file can be created there
-// (checked by creating and removing a probe), before any expensive work.
-void check_output_destination(const std::filesystem::path& dest);
+// Runs `f`, turning a FileWriteError into a VdbError with the same message.
+template <class F>
+decltype(auto) as_vdb_error(F&& f) {
+    try {
+        return std::forward<F>(f)();
+    } catch (const FileWriteError& e) {
+        throw VdbError(e.what());
+    }
+}
 
-class AtomicOutputs {
-public:
-    AtomicOutputs() = default;
-    ~AtomicOutputs();
-    AtomicOutputs(const AtomicOutputs&) = delete;
-    AtomicOutputs& operator=(const AtomicOutputs&) = delete;
-
-    // Registers `dest` and returns the temporary to write instead.
-    std::filesystem::path add(const std::filesystem::path& dest);
-    // Renames every temporary onto its destination (VdbError on failure; the
-    // temporaries not yet renamed are removed).
-    void commit();
-
-private:
-    std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // (temporary, destination)
-    bool committed_ = false;
-};
+// check_output_destination (airmass/atomic_file.hpp), throwing VdbError.
+inline void check_output_destination(const std::filesystem::path& dest) {
+    as_vdb_error([&] { airmass::check_output_destination(dest); });
+}
 
 }  // namespace airmass::detail

@@ -8,7 +8,6 @@
 // cube's faces, so a border of zero voxels keeps opposite faces apart.
 #include <algorithm>
 #include <cstdint>
-#include <fstream>
 #include <sstream>
 
 #include "airmass/vdb_grids.hpp"
@@ -67,7 +66,7 @@ std::vector<fs::path> export_df3(const Scene& scene, const VdbOptions& options, 
     // (x, y, z), i.e. airmass (x, z, y) index axes.
     const openvdb::Coord lo = box.min();
     const int nx = dim.x(), ny = dim.z(), nz = dim.y();  // df3 dims in POV axis order
-    detail::AtomicOutputs outputs;
+    AtomicOutputs outputs(run.cancel);  // nothing replaced unless every file was written
     std::vector<fs::path> written;
     std::ostringstream inc;
     const double v = layout.voxel_size;
@@ -99,25 +98,17 @@ std::vector<fs::path> export_df3(const Scene& scene, const VdbOptions& options, 
                     put_be32(data, std::uint32_t(q * 4294967295.0 + 0.5));
                 }
         const fs::path dest = dir / (stem + "." + name + ".df3");
-        const fs::path tmp = outputs.add(dest);
-        std::ofstream f(tmp, std::ios::binary);
-        f.write(data.data(), std::streamsize(data.size()));
-        f.close();
-        if (!f) throw VdbError("cannot write '" + dest.string() + "'");
+        detail::as_vdb_error([&] { outputs.write(dest, data); });
         written.push_back(dest);
         inc << "#declare Airmass_" << name << "_Df3File = \"" << dest.filename().string() << "\";\n"
             << "#declare Airmass_" << name << "_Df3Max = " << num(vmax) << ";\n";
     }
     const fs::path inc_path = dir / (stem + ".df3.inc");
-    {
-        const fs::path tmp = outputs.add(inc_path);
-        std::ofstream f(tmp, std::ios::binary);
-        f << inc.str();
-        f.close();
-        if (!f) throw VdbError("cannot write '" + inc_path.string() + "'");
-    }
+    detail::as_vdb_error([&] {
+        outputs.write(inc_path, inc.str());
+        outputs.commit();
+    });
     written.push_back(inc_path);
-    outputs.commit();
     return written;
 }
 

@@ -1,7 +1,9 @@
 // export_vdb: build, report, write every tile atomically.
 #include <openvdb/io/File.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 
 #include "airmass/progress.hpp"
@@ -21,20 +23,29 @@ std::vector<fs::path> vdb_output_paths(const fs::path& path, std::size_t tiles) 
     return out;
 }
 
-void write_text_atomic(const fs::path& path, std::string_view text) {
-    detail::check_output_destination(path);
-    detail::AtomicOutputs out;
-    const fs::path tmp = out.add(path);
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f.write(text.data(), std::streamsize(text.size()));
-        f.close();
-        if (!f) throw VdbError("cannot write '" + path.string() + "'");
-    }
-    out.commit();
+void write_text_atomic(const fs::path& path, std::string_view text, const CancelFlag* cancel) {
+    detail::as_vdb_error([&] { write_file_atomic(path, text, cancel); });
 }
 
 namespace {
+
+// What openvdb::io::File::write does — Archive::write(stream, grids, seekable = true, meta) —
+// into a stream whose failure is checked: io::File never looks at its stream after writing,
+// so a full disk or a file-size limit (EFBIG) would leave a truncated file that looks written.
+class CheckedVdbWriter : public openvdb::io::Archive {
+public:
+    void write_file(const fs::path& tmp, const fs::path& dest, const openvdb::GridPtrVec& grids,
+                    const openvdb::MetaMap& meta) const {
+        std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
+        if (!os) throw VdbError("cannot write '" + dest.string() + "': cannot create '" + tmp.string() + "'");
+        errno = 0;
+        Archive::write(os, grids, /*seekable=*/true, meta);
+        os.close();
+        if (!os)
+            throw VdbError("cannot write '" + dest.string() + "': " +
+                           (errno != 0 ? std::string(std::strerror(errno)) : std::string("the write failed")));
+    }
+};
 
 std::vector<std::string> file_names(const std::vector<fs::path>& paths) {
     std::vector<std::string> out;
@@ -57,7 +68,7 @@ VdbStats export_vdb(const Scene& scene, const VdbOptions& options, const fs::pat
 
     const auto t0 = std::chrono::steady_clock::now();
     const std::vector<fs::path> paths = vdb_output_paths(path, volume.tiles.size());
-    detail::AtomicOutputs outputs;
+    AtomicOutputs outputs(run.cancel);  // nothing replaced unless every file was written
     const std::uint32_t compression = openvdb::io::Archive::hasBloscCompression()
                                           ? openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK
                                           : openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK;
@@ -68,24 +79,20 @@ VdbStats export_vdb(const Scene& scene, const VdbOptions& options, const fs::pat
             if (g) grids.push_back(g);
         const fs::path tmp = outputs.add(paths[t]);
         try {
-            openvdb::io::File file(tmp.string());
-            file.setCompression(compression);
+            CheckedVdbWriter writer;
+            writer.setCompression(compression);
             openvdb::MetaMap meta;
             detail::insert_metadata(meta, volume_file_metadata(volume.layout, t, volume.tiles.size()));
-            file.write(grids, meta);
-            file.close();
+            writer.write_file(tmp, paths[t], grids, meta);
         } catch (const openvdb::Exception& e) {
             throw VdbError("cannot write '" + paths[t].string() + "': " + e.what());
         }
     }
-    if (volume.tiles.size() > 1) {
-        const fs::path tmp = outputs.add(paths.back());
-        std::ofstream f(tmp, std::ios::binary);
-        f << volume_tiles_manifest(volume.layout, volume.stats, file_names(paths));
-        f.close();
-        if (!f) throw VdbError("cannot write '" + paths.back().string() + "'");
-    }
-    outputs.commit();
+    detail::as_vdb_error([&] {
+        if (volume.tiles.size() > 1)
+            outputs.write(paths.back(), volume_tiles_manifest(volume.layout, volume.stats, file_names(paths)));
+        outputs.commit();
+    });
     stats.write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     stats.files = paths;
     for (const auto& p : paths)

@@ -1,10 +1,9 @@
 // Writing linear float images as OpenEXR, atomically.
 //
-// An image is written to a temporary file beside the destination (same directory, so
-// the final rename(2) is atomic on one filesystem) and renamed over the destination
-// only once OpenImageIO has closed it without error. A reader therefore sees either
-// the previous file or the complete new one, never a partial file; on any failure the
-// temporary is removed and nothing else is touched.
+// An image is written to a temporary file beside the destination and renamed over it only
+// once OpenImageIO has closed it without error (airmass/atomic_file.hpp, the one helper of
+// every writer). A reader therefore sees either the previous file or the complete new one,
+// never a partial file; on any failure the temporary is removed and nothing else is touched.
 #pragma once
 
 #include <cstddef>
@@ -14,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "airmass/atomic_file.hpp"
 #include "airmass/image.hpp"
 
 namespace airmass {
@@ -24,19 +24,18 @@ struct ImageWriteError : std::runtime_error {
 };
 
 // Checks, before any expensive work, that `path` can be written: it ends in ".exr",
-// its directory exists and is writable. Throws ImageWriteError naming the problem.
+// its directory exists and a file can be created there (check_output_destination).
+// Throws ImageWriteError naming the problem.
 void check_exr_destination(const std::filesystem::path& path);
 
 // Writes `image` as a 32-bit float, ZIP-compressed scanline EXR with channels R, G, B
-// (A for a fourth), plus `metadata`, via temporary file + rename. Throws ImageWriteError.
-void write_exr_atomic(const std::filesystem::path& path, const FloatImage& image, const ImageMetadata& metadata);
+// (A for a fourth), plus `metadata`, via temporary file + rename. Throws ImageWriteError, or
+// Cancelled when `cancel` is requested before the rename (the destination then untouched).
+void write_exr_atomic(const std::filesystem::path& path, const FloatImage& image, const ImageMetadata& metadata,
+                      const CancelFlag* cancel = nullptr);
 
 // Reads an image as 32-bit float (any format OpenImageIO reads), with its string
 // attributes. For tests and reports. Throws ImageWriteError (naming the path) on failure.
 FloatImage read_image(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
-
-// The temporary name write_exr_atomic uses for `path` in this process (for tests and
-// for documentation: "<dir>/.<name>.airmass-tmp-<pid>.exr").
-std::filesystem::path exr_temporary_path(const std::filesystem::path& path);
 
 }  // namespace airmass

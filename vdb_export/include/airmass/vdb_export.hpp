@@ -54,7 +54,8 @@ std::vector<std::filesystem::path> vdb_output_paths(const std::filesystem::path&
 std::vector<std::filesystem::path> export_df3(const Scene& scene, const VdbOptions& options,
                                               const std::filesystem::path& stem_path, const VdbRunOptions& run = {});
 
-// Writes `text` to `path` via temporary file + rename (VdbError on failure).
-void write_text_atomic(const std::filesystem::path& path, std::string_view text);
+// Writes `text` to `path` via temporary file + rename (airmass/atomic_file.hpp): VdbError on
+// failure, Cancelled when `cancel` is requested before the rename; either way `path` untouched.
+void write_text_atomic(const std::filesystem::path& path, std::string_view text, const CancelFlag* cancel = nullptr);
 
 }  // namespace airmass

@@ -1,0 +1,78 @@
+// Output files written atomically — the one helper behind every file the command line
+// writes (EXR through image_io.hpp; .vdb, .df3, JSON, POV-Ray and CSV text through
+// vdb_export.hpp; `airmass compare`'s files). The airmass_files library: not part of the
+// core (a host such as Blender writes its own files).
+//
+// Each output goes to a hidden temporary beside its destination,
+//     <dir>/.<stem>.airmass-tmp-<pid>-<n><ext>
+// (same directory, so rename(2) is atomic; same extension, so a writer that picks its format
+// from the name still does). commit() checks the cancel flag, flushes every temporary to
+// disk (fsync) and only then renames each over its destination. So a reader of a
+// destination sees the previous file (or none), or the complete new one — never a part:
+//   * any error (folder not writable, disk full, a file-size limit, a writer's own error)
+//     or a cancel requested before commit(): every temporary is removed, nothing replaced;
+//   * the process killed (SIGKILL) before commit(): its temporary stays behind. It is
+//     hidden and says what it is, and the next AtomicOutputs writing the same destination
+//     removes it once process <pid> no longer exists (remove_stale_temporaries).
+// A set of several files is replaced together; only a rename failing part-way through
+// commit() (the folder removed meanwhile, say) can leave the first ones new and the rest old.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "airmass/progress.hpp"
+
+namespace airmass {
+
+// Every problem writing an output; the message names the destination and the cause.
+struct FileWriteError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// Throws FileWriteError unless `dest` is a non-empty path that is not a directory, in an
+// existing folder where a file can be created (tried: a temporary is created and removed,
+// which also holds for root in a read-only mount). For use before any expensive work.
+void check_output_destination(const std::filesystem::path& dest);
+
+// The temporaries of `dest` present in its folder, of any process (tests, cleanup).
+std::vector<std::filesystem::path> temporaries_of(const std::filesystem::path& dest);
+
+// Removes the temporaries of `dest` left by processes that no longer exist (a kill -9);
+// returns how many. Those of live processes (this one included) are left alone.
+std::size_t remove_stale_temporaries(const std::filesystem::path& dest);
+
+class AtomicOutputs {
+public:
+    // `cancel` (may be null) is checked by write() and commit(): a requested cancel removes
+    // every temporary and throws Cancelled before any destination is replaced.
+    explicit AtomicOutputs(const CancelFlag* cancel = nullptr) : cancel_(cancel) {}
+    ~AtomicOutputs();  // without commit(): removes every temporary
+    AtomicOutputs(const AtomicOutputs&) = delete;
+    AtomicOutputs& operator=(const AtomicOutputs&) = delete;
+
+    // Registers `dest` (removing its stale temporaries) and returns the temporary to write.
+    std::filesystem::path add(const std::filesystem::path& dest);
+    // add(dest) and writes `bytes` to the temporary (FileWriteError if that fails).
+    void write(const std::filesystem::path& dest, std::string_view bytes);
+    // fsyncs every temporary, then renames each onto its destination. FileWriteError or
+    // Cancelled on failure (the temporaries not yet renamed are removed).
+    void commit();
+
+private:
+    void check_cancel();
+    void discard() noexcept;
+    const CancelFlag* cancel_;
+    std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // (temporary, destination)
+    bool done_ = false;
+};
+
+// One file: check_output_destination, then write + commit through an AtomicOutputs.
+void write_file_atomic(const std::filesystem::path& path, std::string_view bytes, const CancelFlag* cancel = nullptr);
+
+}  // namespace airmass

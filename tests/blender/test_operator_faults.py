@@ -1,0 +1,278 @@
+"""Every add-on operator leaves the previous result on any failure (issue 17 item 4):
+
+    blender -b --factory-startup --python-exit-code 1 \\
+        --python tests/blender/test_operator_faults.py -- --zip build/addon/airmass_blender.zip [-k NAME]
+
+For Generate Sky, the analytic volume, the VDB volume and Compare with Native: a first run
+succeeds (Compare: a previous result folder is put in place), then the same operator fails —
+
+  * invalid      a bad scene value (a scale height of 0), refused before any work;
+  * readonly     the Output Folder read-only (a read-only tmpfs as root, mode 0555 else);
+  * full         a full disk: the Output Folder a tmpfs holding the previous files and one
+                 page more (root only);
+  * forced       an exception inside the operator's last step (after its files are written),
+                 as a Blender API failure would raise —
+
+and afterwards the datablocks (counts, names, the World's image and its pixels, each
+atmosphere object's data and material), the files of the Output Folder (bytes) and the
+Compare report setting are what they were. Helpers come from run_addon_tests.py.
+"""
+
+import argparse
+import contextlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+
+import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import run_addon_tests as rt  # noqa: E402  (its main() runs only as Blender's script)
+
+check = rt.check
+TESTS = []
+
+
+def test(fn):
+    TESTS.append(fn)
+    return fn
+
+
+def _can_mount():
+    if os.geteuid() != 0:
+        return False
+    t = tempfile.mkdtemp()
+    try:
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", t], capture_output=True).returncode:
+            return False
+        subprocess.run(["umount", t], check=True)
+        return True
+    finally:
+        os.rmdir(t)
+
+
+CAN_MOUNT = _can_mount()
+
+
+def state(scene, out):
+    """What a failure must not change."""
+    env = None
+    if scene.world is not None and scene.world.node_tree is not None:
+        env = scene.world.node_tree.nodes.get("Airmass Sky")
+    image = env.image if env is not None else None
+    files = {}
+    for f in rt.files_in(out):
+        with open(f, "rb") as fh:
+            files[f] = fh.read()
+    return {
+        "counts": rt.data_snapshot(),
+        "objects": sorted((o.name, o.data.name if o.data else None,
+                           o.active_material.name if o.active_material else None) for o in bpy.data.objects),
+        "images": sorted(i.name for i in bpy.data.images),
+        "world_image": image.name if image is not None else None,
+        "world_pixels": tuple(rt._image_pixels(image).ravel()[:4096]) if image is not None else None,
+        "files": files,
+        "compare_report": scene.airmass.compare_report,
+    }
+
+
+def expect_failure_keeps(scene, out, op, needle, what):
+    before = state(scene, out)
+    try:
+        op()
+    except RuntimeError as e:
+        check(needle.lower() in str(e).lower(), "%s: error %r lacks %r" % (what, str(e), needle))
+    else:
+        raise AssertionError("%s: no error (expected %r)" % (what, needle))
+    after = state(scene, out)
+    for key in before:
+        if key == "files":
+            changed = sorted(f for f in set(before[key]) | set(after[key]) if before[key].get(f) != after[key].get(f))
+            check(not changed, "%s: files changed: %s" % (what, changed))
+        else:
+            check(after[key] == before[key], "%s: %s changed: %r -> %r" % (what, key, before[key], after[key]))
+
+
+@contextlib.contextmanager
+def read_only(folder):
+    """`folder` (holding the previous result) read-only for the duration."""
+    if CAN_MOUNT:
+        saved = tempfile.mkdtemp()
+        shutil.copytree(folder, saved, dirs_exist_ok=True)
+        subprocess.run(["mount", "-t", "tmpfs", "tmpfs", folder], check=True)
+        try:
+            shutil.copytree(saved, folder, dirs_exist_ok=True)
+            subprocess.run(["mount", "-o", "remount,ro", folder], check=True)
+            yield True
+        finally:
+            subprocess.run(["umount", "-l", folder], check=False)
+            shutil.rmtree(saved, ignore_errors=True)
+    elif os.geteuid() != 0:
+        os.chmod(folder, 0o555)
+        try:
+            yield True
+        finally:
+            os.chmod(folder, 0o755)
+    else:
+        print("    (root without mount: read-only case skipped)")
+        yield False
+
+
+@contextlib.contextmanager
+def full_disk(folder):
+    """`folder` on a tmpfs holding its files and one free page (root only; else skipped)."""
+    if not CAN_MOUNT:
+        print("    (no mount: full-disk case skipped)")
+        yield False
+        return
+    saved = tempfile.mkdtemp()
+    shutil.copytree(folder, saved, dirs_exist_ok=True)
+    pages = sum(-(-os.path.getsize(f) // 4096) for f in rt.files_in(saved)) + 1
+    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=%d" % (pages * 4096), "tmpfs", folder], check=True)
+    try:
+        shutil.copytree(saved, folder, dirs_exist_ok=True)
+        yield True
+    finally:
+        subprocess.run(["umount", "-l", folder], check=False)
+        shutil.rmtree(saved, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def patched(module, name, exc_message):
+    old = getattr(module, name)
+
+    def fail(*_a, **_k):
+        raise RuntimeError(exc_message)
+
+    setattr(module, name, fail)
+    try:
+        yield
+    finally:
+        setattr(module, name, old)
+
+
+def _mod(name):
+    return __import__(rt.ADDON + "." + name, fromlist=["x"])
+
+
+def bad_scale_height(scene):
+    mie = next(c for c in scene.airmass.constituents if c.name == "mie")
+    mie.scale_height = 0.0
+    return lambda: setattr(mie, "scale_height", mie.preset_scale_height)
+
+
+@test
+def test_generate_sky_keeps_the_previous_sky():
+    scene, out = rt.fresh_scene("fault_sky")
+    scene.airmass.sky_width = 64
+    op = lambda: bpy.ops.airmass.generate_sky()  # noqa: E731
+    check(op() == {"FINISHED"}, "first Generate Sky failed")
+    check(rt.files_in(out), "no sky file written to the absolute Output Folder")
+    restore = bad_scale_height(scene)
+    expect_failure_keeps(scene, out, op, "scale_height_km", "sky invalid")
+    restore()
+    scene.airmass.sky_width = 128  # a new sky would differ from the previous one
+    with read_only(out) as ro:
+        if ro:
+            expect_failure_keeps(scene, out, op, "not writable", "sky readonly")
+    with full_disk(out) as full:
+        if full:
+            expect_failure_keeps(scene, out, op, "space", "sky full disk")
+    with patched(_mod("world"), "wire_world", "forced failure"):
+        expect_failure_keeps(scene, out, op, "forced failure", "sky forced")
+    check(op() == {"FINISHED"}, "Generate Sky after the failures")
+
+
+@test
+def test_analytic_volume_keeps_the_previous_volume():
+    scene, out = rt.fresh_scene("fault_analytic")
+    op = lambda: bpy.ops.airmass.create_volume(mode="ANALYTIC")  # noqa: E731
+    check(op() == {"FINISHED"}, "first analytic volume failed")
+    restore = bad_scale_height(scene)
+    expect_failure_keeps(scene, out, op, "scale_height_km", "analytic invalid")
+    restore()
+    with patched(_mod("volume"), "shell_geometry", "forced failure"):
+        expect_failure_keeps(scene, out, op, "forced failure", "analytic forced")
+    check(op() == {"FINISHED"}, "analytic volume after the failures")
+
+
+@test
+def test_vdb_volume_keeps_the_previous_volume():
+    scene, out = rt._vdb_view_scene("fault_vdb")
+    s = scene.airmass
+    s.voxel_size = 2.0
+    op = lambda: bpy.ops.airmass.create_volume(mode="VDB")  # noqa: E731
+    check(op() == {"FINISHED"}, "first VDB volume failed")
+    check(any(f.endswith(".vdb") for f in rt.files_in(out)), "no .vdb written")
+    restore = bad_scale_height(scene)
+    expect_failure_keeps(scene, out, op, "scale_height_km", "vdb invalid")
+    restore()
+    s.voxel_size = 1.5  # new files would differ from the previous ones
+    with read_only(out) as ro:
+        if ro:
+            expect_failure_keeps(scene, out, op, "not writable", "vdb readonly")
+    with full_disk(out) as full:
+        if full:
+            expect_failure_keeps(scene, out, op, "", "vdb full disk")
+    with patched(_mod("volume"), "build_material", "forced failure"):
+        expect_failure_keeps(scene, out, op, "forced failure", "vdb forced")
+    check(op() == {"FINISHED"}, "VDB volume after the failures")
+
+
+@test
+def test_compare_keeps_the_previous_result():
+    scene, out = rt._compare_setup("fault_compare", {"SKY_TEXTURE"})
+    folder = os.path.join(out, "%s_compare" % bpy.path.clean_name(scene.name))
+    os.makedirs(folder)
+    for name in ("report.md", "summary.json", "job.json"):
+        with open(os.path.join(folder, name), "w") as f:
+            f.write("previous %s\n" % name)
+    scene.airmass.compare_report = os.path.join(folder, "report.md")
+    op = lambda: bpy.ops.airmass.compare()  # noqa: E731
+    restore = bad_scale_height(scene)
+    expect_failure_keeps(scene, out, op, "scale_height_km", "compare invalid")
+    restore()
+    with read_only(out) as ro:
+        if ro:
+            expect_failure_keeps(scene, out, op, "not writable", "compare readonly")
+    # The CLI fails (its only path refused): the temporary folder goes, the previous stays.
+    scene.airmass.compare_paths = {"VDB_VOLUME"}
+    scene.airmass.view_distance, scene.airmass.max_dense_mb = 1000.0, 1.0
+    expect_failure_keeps(scene, out, op, "every path failed", "compare cli failure")
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    ap = argparse.ArgumentParser(prog="test_operator_faults.py")
+    ap.add_argument("--zip", required=True)
+    ap.add_argument("-k", dest="select", default="")
+    args = ap.parse_args(argv)
+    rt.Ctx.zip = os.path.abspath(args.zip)
+    rt.Ctx.tmp = tempfile.mkdtemp(prefix="airmass-blender-faults-")
+    failures = []
+    try:
+        rt.install_addon(rt.Ctx.zip)
+        for fn in TESTS:
+            if args.select and args.select not in fn.__name__:
+                continue
+            t0 = time.time()
+            try:
+                fn()
+                status = "PASS"
+            except Exception:  # noqa: BLE001
+                failures.append(fn.__name__)
+                status = "FAIL"
+                traceback.print_exc()
+            print("%s %s (%.1f s)" % (status, fn.__name__, time.time() - t0))
+    finally:
+        shutil.rmtree(rt.Ctx.tmp, ignore_errors=True)
+    if failures:
+        raise SystemExit("operator fault tests failed: " + ", ".join(failures))
+    print("all operator fault tests passed")
+
+
+main()
