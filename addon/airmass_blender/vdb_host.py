@@ -20,6 +20,7 @@ temporaries, so nothing half-made is left. Pure Python (numpy + the OpenVDB modu
 it runs on the operator's worker thread.
 """
 
+import errno
 import importlib
 import itertools
 import os
@@ -144,13 +145,56 @@ class _Reporter:
 
 
 class Written:
-    """What write_volume made: the plan, the files (vdb files then the manifest) and the module used."""
+    """What write_volume made: the plan, the files (vdb files then the manifest), the module
+    used, and the previous files it replaced (kept as hidden hard links until the caller
+    keeps the new ones — keep() — or puts the previous ones back — restore())."""
 
-    def __init__(self, plan, files, vdb_files, module_name):
+    def __init__(self, plan, files, vdb_files, module_name, previous=()):
         self.plan = plan
         self.files = files
         self.vdb_files = vdb_files
         self.module_name = module_name
+        self.previous = dict(previous)  # destination -> its previous file's hidden link
+
+    def keep(self):
+        """The new files stay: the previous ones' links go."""
+        for link in self.previous.values():
+            _remove_quietly(link)
+        self.previous = {}
+
+    def restore(self):
+        """A later step failed: each destination gets its previous file back (or none)."""
+        for dest in self.files:
+            link = self.previous.get(dest)
+            try:
+                if link is not None:
+                    os.replace(link, dest)
+                else:
+                    os.remove(dest)
+            except OSError:
+                pass
+        self.previous = {}
+
+
+def _remove_quietly(path):
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
+def _keep_previous(dest):
+    """A hidden hard link to `dest`'s current file (None if there is none), so that replacing
+    `dest` can be undone; a copy where the filesystem has no hard links."""
+    if not os.path.isfile(dest):
+        return None
+    link = temporary_path(dest)
+    try:
+        os.link(dest, link)
+    except OSError:
+        import shutil
+        shutil.copy2(dest, link)
+    return link
 
 
 def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
@@ -182,6 +226,16 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
     return g, done
 
 
+def _check_not_truncated(path):
+    """OpenVDB's write never looks at its stream afterwards: on a full disk it returns after a
+    short write, leaving a truncated file. Such a write leaves the filesystem without a free
+    block (for this user), so that is refused as ENOSPC — a complete file that filled the disk
+    exactly is refused too, which is safe."""
+    st = os.statvfs(os.path.dirname(path) or ".")
+    if (st.f_bfree if os.geteuid() == 0 else st.f_bavail) == 0:
+        raise OSError(errno.ENOSPC, "No space left on device: '%s' may be incomplete" % os.path.basename(path))
+
+
 def write_volume(spec, folder, stem, progress=None, **options):
     """Plans the volume, fills every grid and writes every file of the plan into `folder`
     atomically. `options`: native._vdb_options keywords (region, unit, voxel_size, box,
@@ -193,6 +247,7 @@ def write_volume(spec, folder, stem, progress=None, **options):
     reporter.at(PLAN_SHARE)
     total = max(1, sum(int(g["dense_voxels"]) for g in plan["grids"]))
     pending = []  # (temporary, destination)
+    previous = {}  # destination -> hidden link to the file it replaces
     try:
         done = 0
         for f in plan["files"]:
@@ -204,6 +259,7 @@ def write_volume(spec, folder, stem, progress=None, **options):
             tmp = temporary_path(dest)
             pending.append((tmp, dest))
             vdb.write(tmp, grids, metadata=metadata_of(f))
+            _check_not_truncated(tmp)
             del grids
         manifest = plan.get("manifest")
         if manifest:
@@ -213,14 +269,17 @@ def write_volume(spec, folder, stem, progress=None, **options):
             with open(tmp, "w", encoding="utf-8") as out:
                 out.write(manifest["text"])
         reporter.check()  # the last chance to cancel: nothing is in place yet
+        for _tmp, dest in pending:
+            link = _keep_previous(dest)
+            if link is not None:
+                previous[dest] = link
         for tmp, dest in pending:
             os.replace(tmp, dest)
     except BaseException:
         for tmp, _dest in pending:
-            try:
-                os.remove(tmp)
-            except OSError:
-                pass
+            _remove_quietly(tmp)
+        for link in previous.values():
+            _remove_quietly(link)
         raise
     files = [dest for _tmp, dest in pending]
-    return Written(plan, files, [f for f in files if f.endswith(".vdb")], vdb.__name__)
+    return Written(plan, files, [f for f in files if f.endswith(".vdb")], vdb.__name__, previous)

@@ -498,6 +498,7 @@ class VdbPlan(Plan):
         self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
         self.max_dense_mb = s.max_dense_mb
         self.files = []
+        self.written = None  # vdb_host.Written once the files are in place
         self.summary = None
 
     def options(self):
@@ -510,6 +511,7 @@ class VdbPlan(Plan):
         description = native.analytic_density(self.spec, unit=self.unit_name)
         try:
             written = vdb_host.write_volume(self.spec, self.folder, self.stem, progress=progress, **self.options())
+            self.written = written
         except vdb_host.NoOpenVdbModule as e:
             raise SettingsError(str(e))
         except native.NativeError as e:
@@ -518,12 +520,11 @@ class VdbPlan(Plan):
         return written, description, albedo
 
     def abort(self):
-        # vdb_host writes atomically; a failure after it wrote (in Blender) removes its files.
-        for f in self.files:
-            try:
-                os.remove(f)
-            except OSError:
-                pass
+        # vdb_host writes atomically; a failure after it wrote (in Blender) puts the previous
+        # files back (the previous volume objects still point at them), or removes the new ones.
+        if self.written is not None:
+            self.written.restore()
+        self.written = None
         self.files = []
 
     def finish(self, context, result):
@@ -573,6 +574,8 @@ class VdbPlan(Plan):
         except Exception:
             created.remove_all()
             raise
+        written.keep()  # the new volume is in place: the previous files' links go
+        self.written = None
         self.summary = ("Airmass VDB atmosphere: %d file(s), voxel %.3g %s, %s active voxels, written with "
                         "Blender's %s module%s"
                         % (len(written.vdb_files), voxel, self.unit_name, plan.get("active_voxels"),
