@@ -1300,9 +1300,10 @@ def cpu_seconds():
 
 # ---- main -----------------------------------------------------------------------------------
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser(prog="run_addon_tests.py")
+def run_tests(tests, argv, prog):
+    """Installs the zip given by --zip into a temporary folder and runs `tests` (those whose
+    name contains -k); raises SystemExit naming the failures. Shared with test_operator_faults.py."""
+    ap = argparse.ArgumentParser(prog=prog)
     ap.add_argument("--zip", required=True)
     ap.add_argument("-k", dest="select", default="")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
@@ -1313,7 +1314,7 @@ def main():
     failures = []
     try:
         install_addon(Ctx.zip)
-        for fn in TESTS:
+        for fn in tests:
             if args.select and args.select not in fn.__name__:
                 continue
             t0, c0 = time.time(), cpu_seconds()
@@ -1333,6 +1334,10 @@ def main():
     print("%d failed: %s" % (len(failures), ", ".join(failures)) if failures else "all Blender add-on tests passed")
     if failures:
         raise SystemExit("Blender add-on tests failed: " + ", ".join(failures))
+
+
+def main():
+    run_tests(TESTS, sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [], "run_addon_tests.py")
 
 
 if __name__ == "__main__":  # Blender runs --python scripts as __main__; test_operator_faults.py imports

@@ -18,15 +18,12 @@ atmosphere object's data and material), the files of the Output Folder (bytes) a
 Compare report setting are what they were. Helpers come from run_addon_tests.py.
 """
 
-import argparse
 import contextlib
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
-import time
-import traceback
 
 import bpy
 
@@ -245,34 +242,5 @@ def test_compare_keeps_the_previous_result():
     expect_failure_keeps(scene, out, op, "every path failed", "compare cli failure")
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser(prog="test_operator_faults.py")
-    ap.add_argument("--zip", required=True)
-    ap.add_argument("-k", dest="select", default="")
-    args = ap.parse_args(argv)
-    rt.Ctx.zip = os.path.abspath(args.zip)
-    rt.Ctx.tmp = tempfile.mkdtemp(prefix="airmass-blender-faults-")
-    failures = []
-    try:
-        rt.install_addon(rt.Ctx.zip)
-        for fn in TESTS:
-            if args.select and args.select not in fn.__name__:
-                continue
-            t0 = time.time()
-            try:
-                fn()
-                status = "PASS"
-            except Exception:  # noqa: BLE001
-                failures.append(fn.__name__)
-                status = "FAIL"
-                traceback.print_exc()
-            print("%s %s (%.1f s)" % (status, fn.__name__, time.time() - t0))
-    finally:
-        shutil.rmtree(rt.Ctx.tmp, ignore_errors=True)
-    if failures:
-        raise SystemExit("operator fault tests failed: " + ", ".join(failures))
-    print("all operator fault tests passed")
-
-
-main()
+if __name__ == "__main__":
+    rt.run_tests(TESTS, sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [], "test_operator_faults.py")
