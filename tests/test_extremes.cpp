@@ -147,9 +147,9 @@ TEST(Extremes, DISABLED_Planet) {
             {up(1.0), E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
-// OPEN (docs/reliability.md): sun.distance_au of 1e-300 or a denormal is refused, but the
-// message names the scaled sun.irradiance.values_w_m2_nm[0] = inf (not swept here); and
-// irradiance value_w_m2_nm = 1e300 is accepted and renders +inf pixels (float overflow).
+// sun.distance_au of 1e-300 or a denormal was refused naming the scaled irradiance (= inf), and
+// irradiance value_w_m2_nm = 1e300 was accepted and rendered +inf pixels: both fields now have
+// bounds checked as written ([1e-3, 1000] AU; [0, 1e6] W m^-2 nm^-1 at 1 AU).
 TEST(Extremes, Sun) {
     sweep({"sun.elevation_deg", [](const std::string& v) { return kBase + "[sun]\nelevation_deg = " + v + "\n"; },
            {{down(-90.0), E::refuse}, {-90.0, E::accept}, {-89.9999, E::accept}, {-1e-4, E::accept},
@@ -163,14 +163,27 @@ TEST(Extremes, Sun) {
            {{0.0, E::refuse}, {kDenorm, E::either}, {1e-9, E::accept}, {5.0, E::accept}, {up(5.0), E::refuse},
             {kInf, E::refuse}, {kNaN, E::refuse}}});
     sweep({"sun.distance_au", [](const std::string& v) { return kBase + "[sun]\ndistance_au = " + v + "\n"; },
-           {{0.0, E::refuse}, {1e-3, E::accept}, {1000.0, E::accept}, {up(1000.0), E::refuse}, {kInf, E::refuse},
-            {kNaN, E::refuse}}});
+           {{0.0, E::refuse}, {kDenorm, E::refuse}, {1e-300, E::refuse}, {down(1e-3), E::refuse}, {1e-3, E::accept},
+            {1000.0, E::accept}, {up(1000.0), E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
     sweep({"sun.irradiance.value_w_m2_nm",
            [](const std::string& v) {
                return kBase + "[sun]\nirradiance = { type = \"constant\", value_w_m2_nm = " + v + " }\n";
            },
            {{down(0.0), E::refuse}, {0.0, E::accept}, {kDenorm, E::accept}, {1.0, E::accept}, {1e6, E::accept},
-            {1e30, E::either}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+            {up(1e6), E::refuse}, {1e30, E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+    // The largest irradiance at the nearest distance: 1e12 at the planet, a finite sky.
+    sweep({"sun.irradiance.value_w_m2_nm",
+           [](const std::string& v) {
+               return kBase + "[sun]\ndistance_au = 1e-3\nirradiance = { type = \"constant\", value_w_m2_nm = " + v +
+                      " }\n";
+           },
+           {{1e6, E::accept}, {up(1e6), E::refuse}}});
+    sweep({"sun.irradiance.values_w_m2_nm[1]",
+           [](const std::string& v) {
+               return kBase + "[sun]\nirradiance = { type = \"table\", wavelengths_nm = [360, 830], values_w_m2_nm = "
+                              "[1, " + v + "] }\n";
+           },
+           {{1e6, E::accept}, {up(1e6), E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}}});
 }
 
 TEST(Extremes, Observer) {

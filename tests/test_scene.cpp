@@ -465,7 +465,7 @@ TEST(SceneValidate, SunObserverCamera) {
     EXPECT_ERROR(with(kMinimal, "[spectrum]", "[sun]\nangular_radius_deg = 0\n[spectrum]"),
                  "sun.angular_radius_deg = 0: must be in (0, 5]");
     EXPECT_ERROR(with(kMinimal, "[spectrum]", "[sun]\ndistance_au = -1\n[spectrum]"),
-                 "sun.distance_au = -1: must be in (0, 1000]");
+                 "sun.distance_au = -1: must be in [0.001, 1000]");
     EXPECT_ERROR(with(kMinimal, "[spectrum]", "[sun]\nirradiance = { type = \"blackbody\" }\n[spectrum]"),
                  "sun.irradiance.type = \"blackbody\": must be \"constant\" or \"table\"");
     EXPECT_ERROR(with(kMinimal, "[spectrum]",

@@ -50,6 +50,12 @@ constexpr double kMaxSpectralNm = kCmfLastNm;
 constexpr std::size_t kMaxWavelengths = 1000;
 constexpr double kMaxRadiusKm = 1e6;
 constexpr double kMaxAngularRadiusDeg = 5.0;
+// Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
+// the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
+// overflow to +inf (issue 17: 1e300 rendered +inf pixels).
+constexpr double kMaxIrradianceAt1Au = 1e6;
+constexpr double kMinDistanceAu = 1e-3;
+constexpr double kMaxIrradiance = kMaxIrradianceAt1Au / (kMinDistanceAu * kMinDistanceAu);
 constexpr double kMaxExponent = 10.0;
 constexpr int kMaxImageSide = 65536;
 
@@ -561,18 +567,26 @@ private:
         }
         s.angular_radius_deg = r.number("angular_radius_deg", s.angular_radius_deg);
         const double d_au = r.number("distance_au", 1.0);
-        require_range(std::isfinite(d_au) && d_au > 0.0 && d_au <= 1000.0, "sun.distance_au", d_au,
-                      "must be in (0, 1000]");
+        require_range(std::isfinite(d_au) && d_au >= kMinDistanceAu && d_au <= 1000.0, "sun.distance_au", d_au,
+                      "must be in [" + num(kMinDistanceAu) + ", 1000]");
         const double inverse_square = 1.0 / (d_au * d_au);  // irradiance is given at 1 AU
+        // The values as written are checked before the scaling, so a refusal names them.
+        const auto at_1au = [](const std::string& path, double v) {
+            require_range(std::isfinite(v) && v >= 0.0 && v <= kMaxIrradianceAt1Au, path, v,
+                          "must be in [0, " + num(kMaxIrradianceAt1Au) + "] (W m^-2 nm^-1 at 1 AU)");
+            return v;
+        };
         if (const toml::table* it = r.opt_table("irradiance")) {
             TableReader ir(*it, "sun.irradiance", sources_);
             const std::string type = ir.string("type");
             if (type == "constant") {
-                s.irradiance_constant = ir.number("value_w_m2_nm", 1.0) * inverse_square;
+                s.irradiance_constant =
+                    at_1au("sun.irradiance.value_w_m2_nm", ir.number("value_w_m2_nm", 1.0)) * inverse_square;
             } else if (type == "table") {
                 const auto w = ir.numbers("wavelengths_nm");
                 auto v = ir.numbers("values_w_m2_nm");
-                for (double& x : v) x *= inverse_square;
+                for (std::size_t i = 0; i < v.size(); ++i)
+                    v[i] = at_1au("sun.irradiance.values_w_m2_nm[" + std::to_string(i) + "]", v[i]) * inverse_square;
                 s.irradiance_table = zip(ir, "values_w_m2_nm", w, v);
             } else {
                 ir.fail(it->get("type"), "type", " = " + in_quotes(type) + ": must be \"constant\" or \"table\"");
@@ -1141,10 +1155,18 @@ void validate(const Scene& scene) {
     const double lo = *std::min_element(wl.begin(), wl.end());
     const double hi = *std::max_element(wl.begin(), wl.end());
 
-    if (sun.irradiance_table.empty())
-        require_non_negative("sun.irradiance.value_w_m2_nm", sun.irradiance_constant);
-    else
+    if (sun.irradiance_table.empty()) {
+        require_range(std::isfinite(sun.irradiance_constant) && sun.irradiance_constant >= 0.0 &&
+                          sun.irradiance_constant <= kMaxIrradiance,
+                      "sun.irradiance.value_w_m2_nm", sun.irradiance_constant,
+                      "must be in [0, " + num(kMaxIrradiance) + "] at the planet");
+    } else {
         check_table("sun.irradiance", sun.irradiance_table, "values_w_m2_nm", lo, hi);
+        for (std::size_t i = 0; i < sun.irradiance_table.size(); ++i)
+            require_range(sun.irradiance_table[i].second <= kMaxIrradiance,
+                          "sun.irradiance.values_w_m2_nm[" + std::to_string(i) + "]", sun.irradiance_table[i].second,
+                          "must be in [0, " + num(kMaxIrradiance) + "] at the planet");
+    }
 
     std::set<std::string> names;
     for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
