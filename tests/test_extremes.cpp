@@ -129,22 +129,30 @@ void sweep(const Sweep& s) {
 
 using E = Expect;
 
-// OPEN (docs/reliability.md): a tiny planet (radius_km near 1e-30 or a denormal, atmosphere_top_km = 2e6) sends a NaN zenith angle into the airmass Chapman table: UBSan aborts (float-cast-overflow).
-TEST(Extremes, DISABLED_Planet) {
+// A tiny planet (radius_km near 1e-30 or a denormal, atmosphere_top_km = 2e6) sent a NaN zenith angle into the
+// airmass Chapman table (UBSan: float-cast-overflow; Release: a segfault): radius_km >= 1 km now.
+TEST(Extremes, Planet) {
     sweep({"planet.radius_km",
            [](const std::string& v) { return kBase + "[planet]\nradius_km = " + v + "\natmosphere_top_km = 2e6\n"; },
-           {{0.0, E::refuse}, {-1.0, E::refuse}, {kDenorm, E::either}, {1e-30, E::either}, {1.0, E::accept},
+           {{0.0, E::refuse}, {-1.0, E::refuse}, {kDenorm, E::refuse}, {1e-30, E::refuse}, {down(1.0), E::refuse},
+            {1.0, E::accept},
             {6360.0, E::accept}, {1e6, E::accept}, {up(1e6), E::refuse}, {1e300, E::refuse}, {kInf, E::refuse},
             {kNaN, E::refuse}}});
+    sweep({"planet.ground_albedo",
+           [](const std::string& v) { return kBase + "[planet]\nground_albedo = " + v + "\n"; },
+           {{down(0.0), E::refuse}, {0.0, E::accept}, {kDenorm, E::accept}, {0.5, E::accept}, {1.0, E::accept},
+            {up(1.0), E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+}
+
+// OPEN (docs/reliability.md): an atmosphere top just above the ground (6360.001 km on the earth
+// preset) is refused by ozone's column_du (a derived requirement: "needs a profile with a
+// non-zero, finite column below the atmosphere top"), not naming planet.atmosphere_top_km.
+TEST(Extremes, DISABLED_PlanetAtmosphereTop) {
     sweep({"planet.atmosphere_top_km",
            [](const std::string& v) { return kBase + "[planet]\nradius_km = 6360\natmosphere_top_km = " + v + "\n"; },
            {{6360.0, E::refuse}, {up(6360.0), E::either}, {6360.001, E::accept}, {6420.0, E::accept},
             {2e6, E::accept}, {up(2e6), E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse},
             {-6420.0, E::refuse}}});
-    sweep({"planet.ground_albedo",
-           [](const std::string& v) { return kBase + "[planet]\nground_albedo = " + v + "\n"; },
-           {{down(0.0), E::refuse}, {0.0, E::accept}, {kDenorm, E::accept}, {0.5, E::accept}, {1.0, E::accept},
-            {up(1.0), E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
 // sun.distance_au of 1e-300 or a denormal was refused naming the scaled irradiance (= inf), and

@@ -429,7 +429,7 @@ TEST(SceneParse, LoadSceneFile) {
 
 TEST(SceneValidate, PlanetFields) {
     EXPECT_ERROR(with(kMinimal, "radius_km = 6360", "radius_km = -1"),
-                 "planet.radius_km = -1: must be in (0, 1000000]");
+                 "planet.radius_km = -1: must be in [1, 1000000]");
     EXPECT_ERROR(with(kMinimal, "atmosphere_top_km = 6420", "atmosphere_top_km = 6000"),
                  "planet.atmosphere_top_km = 6000: must be > planet.radius_km (6360)");
     EXPECT_ERROR(with(kMinimal, "radius_km = 6360", "radius_km = nan"), "planet.radius_km = nan: must be in");

@@ -50,6 +50,7 @@ constexpr double kMaxSpectralNm = kCmfLastNm;
 constexpr std::size_t kMaxWavelengths = 1000;
 constexpr double kMaxRadiusKm = 1e6;
 constexpr double kMaxAngularRadiusDeg = 5.0;
+constexpr double kMinRadiusKm = 1.0;
 // Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
 // the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
 // overflow to +inf (issue 17: 1e300 rendered +inf pixels).
@@ -148,8 +149,10 @@ void check_table(const std::string& path, const std::vector<std::pair<double, do
 
 void validate_planet(const Planet& p) {
     const double r_km = p.radius_m / kMetresPerKm;
-    require_range(std::isfinite(r_km) && r_km > 0.0 && r_km <= kMaxRadiusKm, "planet.radius_km", r_km,
-                  "must be in (0, " + num(kMaxRadiusKm) + "]");
+    // Below 1 km (a denormal, 1e-30 km) the geometry near the centre sent NaN zenith angles into
+    // the Chapman table: an out-of-bounds read (issue 17 extremes; Extremes.Planet).
+    require_range(std::isfinite(r_km) && r_km >= kMinRadiusKm && r_km <= kMaxRadiusKm, "planet.radius_km", r_km,
+                  "must be in [" + num(kMinRadiusKm) + ", " + num(kMaxRadiusKm) + "]");
     const double top_km = p.atmosphere_top_m / kMetresPerKm;
     require_range(std::isfinite(top_km) && top_km > r_km, "planet.atmosphere_top_km", top_km,
                   "must be > planet.radius_km (" + num(r_km) + "): it is the radius of the atmosphere's top");
