@@ -162,62 +162,50 @@ def bad_scale_height(scene):
     return lambda: setattr(mie, "scale_height", mie.preset_scale_height)
 
 
+def each_fault(scene, out, op, what, change, forced, file_faults=True, full_disk_needle="space"):
+    """After a first successful `op`, every fault must keep its result: a bad scale height, then
+    (with `change()` applied, so a new result would differ) a read-only and a full Output Folder
+    (file_faults) and `forced` = (module, function) raising; finally `op` works again."""
+    check(op() == {"FINISHED"}, "%s: the first run failed" % what)
+    restore = bad_scale_height(scene)
+    expect_failure_keeps(scene, out, op, "scale_height_km", what + " invalid")
+    restore()
+    change()
+    if file_faults:
+        check(rt.files_in(out), "%s: no file written to the Output Folder" % what)
+        with read_only(out) as ro:
+            if ro:
+                expect_failure_keeps(scene, out, op, "not writable", what + " readonly")
+        with full_disk(out) as full:
+            if full:
+                expect_failure_keeps(scene, out, op, full_disk_needle, what + " full disk")
+    with patched(_mod(forced[0]), forced[1], "forced failure"):
+        expect_failure_keeps(scene, out, op, "forced failure", what + " forced")
+    check(op() == {"FINISHED"}, "%s after the failures" % what)
+
+
 @test
 def test_generate_sky_keeps_the_previous_sky():
     scene, out = rt.fresh_scene("fault_sky")
     scene.airmass.sky_width = 64
-    op = lambda: bpy.ops.airmass.generate_sky()  # noqa: E731
-    check(op() == {"FINISHED"}, "first Generate Sky failed")
-    check(rt.files_in(out), "no sky file written to the absolute Output Folder")
-    restore = bad_scale_height(scene)
-    expect_failure_keeps(scene, out, op, "scale_height_km", "sky invalid")
-    restore()
-    scene.airmass.sky_width = 128  # a new sky would differ from the previous one
-    with read_only(out) as ro:
-        if ro:
-            expect_failure_keeps(scene, out, op, "not writable", "sky readonly")
-    with full_disk(out) as full:
-        if full:
-            expect_failure_keeps(scene, out, op, "space", "sky full disk")
-    with patched(_mod("world"), "wire_world", "forced failure"):
-        expect_failure_keeps(scene, out, op, "forced failure", "sky forced")
-    check(op() == {"FINISHED"}, "Generate Sky after the failures")
+    each_fault(scene, out, lambda: bpy.ops.airmass.generate_sky(), "sky",
+               lambda: setattr(scene.airmass, "sky_width", 128), ("world", "wire_world"))
 
 
 @test
 def test_analytic_volume_keeps_the_previous_volume():
     scene, out = rt.fresh_scene("fault_analytic")
-    op = lambda: bpy.ops.airmass.create_volume(mode="ANALYTIC")  # noqa: E731
-    check(op() == {"FINISHED"}, "first analytic volume failed")
-    restore = bad_scale_height(scene)
-    expect_failure_keeps(scene, out, op, "scale_height_km", "analytic invalid")
-    restore()
-    with patched(_mod("volume"), "shell_geometry", "forced failure"):
-        expect_failure_keeps(scene, out, op, "forced failure", "analytic forced")
-    check(op() == {"FINISHED"}, "analytic volume after the failures")
+    each_fault(scene, out, lambda: bpy.ops.airmass.create_volume(mode="ANALYTIC"), "analytic",
+               lambda: None, ("volume", "shell_geometry"), file_faults=False)
 
 
 @test
 def test_vdb_volume_keeps_the_previous_volume():
     scene, out = rt._vdb_view_scene("fault_vdb")
-    s = scene.airmass
-    s.voxel_size = 2.0
-    op = lambda: bpy.ops.airmass.create_volume(mode="VDB")  # noqa: E731
-    check(op() == {"FINISHED"}, "first VDB volume failed")
-    check(any(f.endswith(".vdb") for f in rt.files_in(out)), "no .vdb written")
-    restore = bad_scale_height(scene)
-    expect_failure_keeps(scene, out, op, "scale_height_km", "vdb invalid")
-    restore()
-    s.voxel_size = 1.5  # new files would differ from the previous ones
-    with read_only(out) as ro:
-        if ro:
-            expect_failure_keeps(scene, out, op, "not writable", "vdb readonly")
-    with full_disk(out) as full:
-        if full:
-            expect_failure_keeps(scene, out, op, "", "vdb full disk")
-    with patched(_mod("volume"), "build_material", "forced failure"):
-        expect_failure_keeps(scene, out, op, "forced failure", "vdb forced")
-    check(op() == {"FINISHED"}, "VDB volume after the failures")
+    scene.airmass.voxel_size = 2.0
+    each_fault(scene, out, lambda: bpy.ops.airmass.create_volume(mode="VDB"), "vdb",
+               lambda: setattr(scene.airmass, "voxel_size", 1.5), ("volume", "build_material"),
+               full_disk_needle="no space left")
 
 
 @test

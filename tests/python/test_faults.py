@@ -253,14 +253,21 @@ def destination_of(temp):
     return m["stem"] + (m["ext"] or ""), int(m["pid"])
 
 
-@pytest.mark.parametrize("writer", WRITERS)
-def test_ctrl_c_while_writing_keeps_the_previous_or_the_complete_file(airmass_bin, tmp_path, writer):
+def caught_mid_write(airmass_bin, writer, tmp_path):
+    """A previous result in tmp_path/out, and the writer stopped in the middle of a write there:
+    (folder, previous bytes, process, temporary, its destination)."""
     d = tmp_path / "out"
     d.mkdir()
     before = previous_result(airmass_bin, writer, d)
     proc, temp = stopped_mid_write(airmass_bin, writer, d)
     target, pid = destination_of(temp)
     assert pid == proc.pid
+    return d, before, proc, temp, target
+
+
+@pytest.mark.parametrize("writer", WRITERS)
+def test_ctrl_c_while_writing_keeps_the_previous_or_the_complete_file(airmass_bin, tmp_path, writer):
+    d, before, proc, _temp, target = caught_mid_write(airmass_bin, writer, tmp_path)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGCONT)
     _, err = proc.communicate(timeout=120)
@@ -275,11 +282,7 @@ def test_ctrl_c_while_writing_keeps_the_previous_or_the_complete_file(airmass_bi
 
 @pytest.mark.parametrize("writer", WRITERS)
 def test_kill_9_while_writing_leaves_a_named_temporary_the_next_run_removes(airmass_bin, tmp_path, writer):
-    d = tmp_path / "out"
-    d.mkdir()
-    before = previous_result(airmass_bin, writer, d)
-    proc, temp = stopped_mid_write(airmass_bin, writer, d)
-    target, _ = destination_of(temp)
+    d, before, proc, temp, target = caught_mid_write(airmass_bin, writer, tmp_path)
     # A temporary of a live process (this one) for the same destination: never touched.
     stem, ext = os.path.splitext(target)
     live = f".{stem}.airmass-tmp-{os.getpid()}-0{ext}"
