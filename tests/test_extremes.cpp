@@ -273,15 +273,16 @@ TEST(Extremes, DISABLED_TinyScaleHeightWithMultipleScattering) {
     }
 }
 
-// OPEN (docs/reliability.md): |reference_altitude_km| >= 1000 is refused by the Angstrom law (extinction.beta needs a profile with a non-zero, finite column): a clear error, but it names beta, not the field, and no range.
-TEST(Extremes, DISABLED_ExponentialReferenceAltitude) {
+// |reference_altitude_km| >= 1000 was refused by the Angstrom law (extinction.beta needs a profile with a
+// non-zero, finite column), naming beta and no range: the field is now bounded by ±50 scale heights.
+TEST(Extremes, ExponentialReferenceAltitude) {
     const auto toml = [](const std::string& v) {
         return mie_profile("{ type = \"exponential\", scale_height_km = 1.2, reference_altitude_km = " + v + " }");
     };
     sweep({"profile.reference_altitude_km", toml,
-           {{0.0, E::accept}, {-10.0, E::accept}, {10.0, E::accept}, {1e3, E::either}, {-1e3, E::either},
-            {1e30, E::either}, {-1e30, E::either}, {1e300, E::either}, {-1e300, E::either}, {kInf, E::refuse},
-            {kNaN, E::refuse}}});
+           {{0.0, E::accept}, {-10.0, E::accept}, {10.0, E::accept}, {60.0, E::accept}, {-60.0, E::accept},
+            {up(60.0), E::refuse}, {down(-60.0), E::refuse}, {1e3, E::refuse}, {-1e3, E::refuse}, {1e30, E::refuse},
+            {-1e30, E::refuse}, {1e300, E::refuse}, {-1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
 // OPEN (docs/reliability.md): non-finite transmittance/radiance for some tent/piecewise-linear/constant extremes; altitudes_km[1] = 10 is refused naming altitudes_km[2]; a constant profile of value 0 is refused by the Angstrom law.

@@ -51,6 +51,7 @@ constexpr std::size_t kMaxWavelengths = 1000;
 constexpr double kMaxRadiusKm = 1e6;
 constexpr double kMaxAngularRadiusDeg = 5.0;
 constexpr double kMinRadiusKm = 1.0;
+constexpr double kMaxReferenceScaleHeights = 50.0;
 // Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
 // the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
 // overflow to +inf (issue 17: 1e300 rendered +inf pixels).
@@ -167,7 +168,14 @@ void validate_profile(const std::string& path, const DensityProfile& p) {
     switch (p.kind) {
         case DensityProfile::Kind::exponential:
             require_positive(path + ".scale_height_km", km(p.scale_height_m));
-            require_finite(path + ".reference_altitude_km", km(p.reference_altitude_m));
+            // exp(h_ref / H) scales the density at the ground: beyond ±50 scale heights the
+            // column overflowed or vanished and a derived field (extinction.beta) was refused.
+            require_range(std::isfinite(p.reference_altitude_m) &&
+                              std::abs(p.reference_altitude_m) <= kMaxReferenceScaleHeights * p.scale_height_m,
+                          path + ".reference_altitude_km", km(p.reference_altitude_m),
+                          "must be within " + num(kMaxReferenceScaleHeights) + " scale heights of the ground (|" +
+                              path + ".reference_altitude_km| <= " +
+                              num(km(kMaxReferenceScaleHeights * p.scale_height_m)) + ")");
             return;
         case DensityProfile::Kind::tent:
             require_finite(path + ".bottom_km", km(p.bottom_m));
