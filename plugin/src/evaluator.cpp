@@ -74,8 +74,9 @@ void Evaluator::radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOu
 }
 
 void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Vec3<double>> dirs,
-                         RadianceOut out, const MsView* view) const {
+                         RadianceOut out, const MsView* view, std::span<double> multiple_inscatter) const {
     single_scattering_batch(atmosphere_, altitude_m, sun, dirs, out);
+    if (!multiple_inscatter.empty()) std::fill_n(multiple_inscatter.begin(), dirs.size() * wavelength_count(), 0.0);
     if (!tables_) return;
     const std::size_t nw = wavelength_count();
     if (view && (view->altitude_m != altitude_m || view->sun.x != sun.x || view->sun.y != sun.y ||
@@ -83,22 +84,28 @@ void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Ve
         throw std::invalid_argument("multiple-scattering view: made for another observer, sun or wavelength count");
     MsScratch scratch(nw);
     for (std::size_t k = 0; k < dirs.size(); ++k) {
-        if (view)
-            view->lookup(dirs[k], out.transmittance.subspan(k * nw, nw), scratch.total);
-        else
+        const std::span<double> inscatter =
+            multiple_inscatter.empty() ? std::span<double>{} : multiple_inscatter.subspan(k * nw, nw);
+        if (view) {
+            view->lookup(dirs[k], out.transmittance.subspan(k * nw, nw), scratch.total, inscatter);
+        } else {
             multiple_scattering_radiance(atmosphere_, *tables_, ViewRay{altitude_m, dirs[k], sun},
                                          {scratch.rayleigh, scratch.mie, scratch.total}, ms_view_samples_);
+            for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = scratch.rayleigh[w] + scratch.mie[w];
+        }
         double* L = out.radiance.data() + k * nw;
         for (std::size_t w = 0; w < nw; ++w) L[w] += scratch.total[w];
     }
 }
 
-void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double> out) const {
+void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double> out,
+                    std::span<double> inscatter) const {
     const std::size_t nw = std::size_t(grid.channels) / 2;
     SkyGrid::Cell cell;
     const double theta = std::acos(std::clamp(d.z / std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z), -1.0, 1.0));
     if (!grid.cell(theta, std::atan2(d.y, d.x), cell)) {
         std::fill_n(out.begin(), nw, 0.0);
+        std::fill(inscatter.begin(), inscatter.end(), 0.0);
         return;
     }
     double stack[2 * 64];
@@ -110,6 +117,7 @@ void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double>
     }
     grid.interpolate(cell, std::span<double>(v, 2 * nw));
     for (std::size_t w = 0; w < nw; ++w) out[w] = v[w] * (1.0 - T[w]) + v[nw + w] * T[w];
+    for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = v[w] * (1.0 - T[w]);
 }
 
 MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, int threads,

@@ -329,7 +329,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     const Horizon hz = Horizon::of(in.atmosphere.planet_radius_m, in.atmosphere.top_altitude_m, in.altitude_m);
     const int G = effective_sky_grid(scene, settings);
     SkyGrid grid;
-    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(in.sun), 3, upper);
+    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(in.sun), 6, upper);  // RGB scattered, RGB ground
     const int grid_rows = grid.rows();
     // The table precompute, when it runs here, counts as much as the image (it takes about
     // as long as a default 2048 × 1024 image's grid; docs/sky.md).
@@ -348,10 +348,10 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     // Scratch per thread for one batch of rays.
     struct Scratch {
         std::vector<Vec3<double>> dirs;
-        std::vector<double> transmittance, rayleigh, mie, radiance;
+        std::vector<double> transmittance, rayleigh, mie, radiance, multiple_inscatter;
         void resize(std::size_t n, std::size_t nw) {
             dirs.resize(n);
-            for (auto* v : {&transmittance, &rayleigh, &mie, &radiance}) v->resize(n * nw);
+            for (auto* v : {&transmittance, &rayleigh, &mie, &radiance, &multiple_inscatter}) v->resize(n * nw);
         }
         RadianceOut out(std::size_t n, std::size_t nw) {
             return {{transmittance.data(), n * nw}, {rayleigh.data(), n * nw}, {mie.data(), n * nw},
@@ -366,7 +366,28 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate = [&](Scratch& s, std::size_t n) {
         ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
-                               s.out(n, nw), view ? &*view : nullptr);
+                               s.out(n, nw), view ? &*view : nullptr, {s.multiple_inscatter.data(), n * nw});
+    };
+    // The grid holds each node's light normalised by its view transmittance (as MsView does):
+    // what is scattered along the ray over (1 − T̄), what comes from the ground over T̄, T̄ the
+    // luminance-weighted mean of T(λ). A ray just below the horizon meets the ground hundreds
+    // of kilometres away, one a pixel lower a few hundred metres away; its light follows
+    // (1 − T) and T, the ratios stay smooth. Each pixel multiplies back by its own row's T̄
+    // (T depends only on the zenith angle), computed exactly below.
+    std::vector<double> luminance_weight(nw);
+    {
+        double sum = 0.0;
+        for (std::size_t w = 0; w < nw; ++w) {
+            luminance_weight[w] = std::max(0.0, 0.2126 * ctx.to_rgb.matrix[0][w] + 0.7152 * ctx.to_rgb.matrix[1][w] +
+                                                    0.0722 * ctx.to_rgb.matrix[2][w]);
+            sum += luminance_weight[w];
+        }
+        for (double& v : luminance_weight) v = sum > 0.0 ? v / sum : 1.0 / double(nw);
+    }
+    auto mean_transmittance = [&](const double* T) {
+        double t = 0.0;
+        for (std::size_t w = 0; w < nw; ++w) t += luminance_weight[w] * T[w];
+        return std::clamp(t, 0.0, 1.0);
     };
 
     if (G > 0) {
@@ -380,28 +401,53 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                     if (cancelled()) return;
                     for (int j = 0; j < cols; ++j) s.dirs[j] = grid.node_direction(k, j);
                     evaluate(s, cols);
+                    std::vector<double> scattered(nw), ground(nw);
                     for (int j = 0; j < cols; ++j) {
-                        const Vec3d rgb = ctx.to_rgb.apply(std::span<const double>(s.radiance.data() + j * nw, nw));
+                        const std::size_t o = std::size_t(j) * nw;
+                        for (std::size_t w = 0; w < nw; ++w) {
+                            scattered[w] = s.rayleigh[o + w] + s.mie[o + w] + s.multiple_inscatter[o + w];
+                            ground[w] = s.radiance[o + w] - scattered[w];
+                        }
+                        const double T = mean_transmittance(s.transmittance.data() + o);
+                        const Vec3d a = ctx.to_rgb.apply(scattered), b = ctx.to_rgb.apply(ground);
                         double* out = grid.at(k, j);
-                        for (int c = 0; c < 3; ++c) out[c] = rgb[c];
+                        for (int c = 0; c < 3; ++c) {
+                            out[c] = 1.0 - T > 1e-12 ? a[c] / (1.0 - T) : 0.0;
+                            out[3 + c] = T > 1e-300 ? b[c] / T : 0.0;
+                        }
                     }
                     report(1);
                 }
             });
         }
         if (cancelled()) throw Cancelled("sky: cancelled");
+        // T̄ of every image row (one ray per row, toward the sun's azimuth).
+        std::vector<double> row_transmittance(std::size_t(image_rows), 1.0);
+        parallel_for(0, std::size_t(image_rows), 64, threads, [&](std::size_t rb, std::size_t re, int worker) {
+            Scratch& s = scratch[std::size_t(worker)];
+            s.resize(re - rb, nw);
+            for (std::size_t y = rb; y < re; ++y) {
+                const double theta = kPi * (double(y) + 0.5) / H, st = std::sin(theta);
+                s.dirs[y - rb] = Vec3<double>(st * std::cos(grid.sun_phi), st * std::sin(grid.sun_phi), std::cos(theta));
+            }
+            evaluate(s, re - rb);
+            for (std::size_t y = rb; y < re; ++y)
+                row_transmittance[y] = mean_transmittance(s.transmittance.data() + (y - rb) * nw);
+        });
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
                 for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
                         const double theta = kPi * (y + 0.5) / H;
+                        const double T = row_transmittance[std::size_t(y)];
                         SkyGrid::Cell cell;
-                        double v[3];
+                        double v[6];
                         for (int x = 0; x < W && grid.cell(theta, kPi - kTwoPi * (x + 0.5) / W, cell); ++x) {
                             grid.interpolate(cell, v);
                             float* px = image.at(x, y);
-                            for (int ch = 0; ch < 3; ++ch) px[ch] = static_cast<float>(std::max(v[ch], 0.0));
+                            for (int ch = 0; ch < 3; ++ch)
+                                px[ch] = static_cast<float>(std::max(v[ch] * (1.0 - T) + v[3 + ch] * T, 0.0));
                         }
                     }
                     report(1);

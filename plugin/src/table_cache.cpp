@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <iterator>
 #include <system_error>
 #include <vector>
 
@@ -63,12 +62,18 @@ std::shared_ptr<const MultipleScattering> DiskTableStore::load(std::string_view 
     last_load_ = Outcome::miss;
     if (dir_.empty()) return nullptr;
     const fs::path path = entry_path(key);
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) return nullptr;
     std::ifstream in(path, std::ios::binary);
     if (!in) return nullptr;
-    std::vector<char> raw((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // One read into an uninitialised buffer (tables of 48 wavelengths are ≈ 40 MB).
+    std::unique_ptr<std::byte[]> raw(new std::byte[std::size_t(size)]);
+    in.read(reinterpret_cast<char*>(raw.get()), std::streamsize(size));
+    const bool whole = in.gcount() == std::streamsize(size);
     in.close();
-    auto tables = deserialize_tables(std::as_bytes(std::span<const char>(raw)), key);
-    std::error_code ec;
+    auto tables = whole ? deserialize_tables(std::span<const std::byte>(raw.get(), std::size_t(size)), key)
+                        : std::nullopt;
     if (!tables) {
         // Foreign, truncated or corrupt: never trusted, removed so the fresh tables replace it.
         last_load_ = Outcome::rejected;

@@ -64,8 +64,10 @@ struct MsView {
     SkyGrid grid;  // 2 × wavelength count channels: in-scatter / (1 − T), ground part / T
 
     // The multiple-scattering radiance of a unit direction whose view transmittance is
-    // `transmittance` (0 where it misses the atmosphere).
-    void lookup(Vec3<double> direction, std::span<const double> transmittance, std::span<double> out) const;
+    // `transmittance` (0 where it misses the atmosphere): `out` the total, `inscatter` (if not
+    // empty) the part scattered along the ray, without the ground's.
+    void lookup(Vec3<double> direction, std::span<const double> transmittance, std::span<double> out,
+                std::span<double> inscatter = {}) const;
 };
 
 class Evaluator {
@@ -90,8 +92,12 @@ public:
     // Many view directions from one observer (ray-major spans, n × wavelength_count()). With
     // `view` (from ms_view for the same altitude and sun; std::invalid_argument otherwise) the
     // multiple scattering is interpolated from it instead of integrated along every ray.
+    // `multiple_inscatter`, if not empty (n × wavelength_count()), receives the part of the
+    // multiple scattering added to out.radiance that was scattered along the ray (the rest is
+    // the ground's), so that out.radiance − out.radiance_rayleigh − out.radiance_mie −
+    // multiple_inscatter is the light from the ground (and the disc, when the atmosphere adds it).
     void radiance(double altitude_m, Vec3<double> sun_direction, std::span<const Vec3<double>> view_directions,
-                  RadianceOut out, const MsView* view = nullptr) const;
+                  RadianceOut out, const MsView* view = nullptr, std::span<double> multiple_inscatter = {}) const;
 
     // The multiple-scattering view of an observer (MsView), `intervals` ≥ 2, its rays
     // integrated on `threads` threads (0: all); cancellable through hooks.cancel (Cancelled).

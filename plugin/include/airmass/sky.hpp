@@ -112,7 +112,7 @@ struct SkySettings {
     int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
-inline constexpr int kSkyDefaultGrid = 256;
+inline constexpr int kSkyDefaultGrid = 128;
 inline constexpr int kSkyMaxGrid = 16384;
 
 // Limits checked by validate(SkySettings).

@@ -33,7 +33,8 @@ namespace airmass {
 // cancel and keep_radiance's diagnostics excluded: they do not change G or E_ms).
 std::string ms_table_key(const Atmosphere& atmosphere, const MsSettings& settings);
 
-// 64-bit FNV-1a of bytes (a file name for a key; the key itself is compared in full).
+// A 64-bit FNV-1a-style hash of bytes, over 64-bit words (a file name for a key and the
+// records' checksum; the key itself is compared in full).
 std::uint64_t fnv1a64(std::span<const std::byte> bytes);
 std::uint64_t fnv1a64(std::string_view text);
 
