@@ -123,6 +123,27 @@ def _restore_world(scene, old_image):
         env.image = old_image
 
 
+def build_sky_image(name, width, height, flat, metadata, working_space):
+    """A new packed 32-bit float image of `flat` (width·height·4 floats, bottom row first, in the
+    working space): Blender packs a float image as OpenEXR, so bytes(image.packed_file.data) is
+    the EXR file. The library's metadata become custom properties. Removed again on failure."""
+    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    try:
+        compat.set_float_image_colorspace(image)
+        compat.prepare_float_image(image)
+        image.pixels.foreach_set(flat)
+        image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
+        if image.packed_file is None or tuple(image.size) != (width, height):
+            raise RuntimeError("Blender could not pack the sky image")
+        for key, value in metadata.items():
+            image[key] = value
+        image[PIXELS_KEY] = "linear Rec.709 -> %s" % working_space
+    except Exception:
+        bpy.data.images.remove(image)
+        raise
+    return image
+
+
 class SkyPlan(Plan):
     label = "Generate Sky"
 
@@ -159,18 +180,9 @@ class SkyPlan(Plan):
         flat, metadata = result
         scene = context.scene
         old = bpy.data.images.get(IMAGE_NAME)
-        image = bpy.data.images.new(IMAGE_NAME + " (new)", self.width, self.height, alpha=True, float_buffer=True)
+        image = build_sky_image(IMAGE_NAME + " (new)", self.width, self.height, flat, metadata, self.working_space)
         staged = None
         try:
-            compat.set_float_image_colorspace(image)
-            compat.prepare_float_image(image)
-            image.pixels.foreach_set(flat)
-            image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
-            if image.packed_file is None or tuple(image.size) != (self.width, self.height):
-                raise RuntimeError("Blender could not pack the sky image")
-            for key, value in metadata.items():
-                image[key] = value
-            image[PIXELS_KEY] = "linear Rec.709 -> %s" % self.working_space
             if self.path:
                 staged = stage_file(self.path, bytes(image.packed_file.data))
                 image.filepath_raw = self.path  # stays packed; the file is its unpacked twin
