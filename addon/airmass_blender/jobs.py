@@ -67,6 +67,7 @@ class JobOperatorMixin:
     _progress = None
     _outcome = None
     _outcome_error = None
+    _shown_status = None
 
     def make_plan(self, context):
         raise NotImplementedError
@@ -122,6 +123,7 @@ class JobOperatorMixin:
             return {"CANCELLED"}
         self._outcome = None
         self._outcome_error = None
+        self._shown_status = None
 
         def run():
             try:
@@ -149,7 +151,8 @@ class JobOperatorMixin:
         except Exception as e:  # noqa: BLE001 — the worker stops at its next poll
             self._progress.cancel()
             self._outcome_error = e
-        if self._plan.status:
+        if self._plan.status and self._plan.status != self._shown_status:  # each change redraws the window
+            self._shown_status = self._plan.status
             context.workspace.status_text_set("%s: %s… (Esc to cancel)" % (self._plan.label, self._plan.status))
         if self._thread.is_alive():
             return {"RUNNING_MODAL"}
