@@ -37,14 +37,14 @@ from . import properties  # noqa: E402
 from . import jobs  # noqa: E402,F401
 from . import world  # noqa: E402,F401
 from . import sun  # noqa: E402
-from . import animation  # noqa: E402
+from . import animation  # noqa: E402,F401
 from . import vdb_host  # noqa: E402,F401
 from . import volume  # noqa: E402,F401
 from . import compare  # noqa: E402,F401
 from . import operators  # noqa: E402
 from . import ui  # noqa: E402
 
-_MODULES = (properties, operators, animation, ui, sun)
+_MODULES = (properties, operators, ui, sun)
 
 
 def register():

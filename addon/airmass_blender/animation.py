@@ -38,7 +38,7 @@ import threading
 import bpy
 
 from . import compat, native, sun, world
-from .jobs import JobError, JobOperatorMixin, Plan
+from .jobs import JobError, Plan
 from .properties import SettingsError, _Guard, make_spec, resolve_output_folder
 
 IMAGE_NAME = "Airmass Sky Sequence"
@@ -136,19 +136,13 @@ class BakePlan(Plan):
         self.folder = resolve_output_folder(s)  # an image sequence needs files
         self.scene_name = scene.name
         self.source = s.bake_sun_source
-        self.width = s.sky_width
-        self.height = native.sky_height(self.width)
-        self.samples = s.view_samples
-        self.chapman = s.chapman
-        self.grid = s.sky_grid
-        self.multiple_scattering = s.multiple_scattering
+        self.options = world.sky_options(s, sun_disc=False)  # the lamp carries the direct sun
+        self.width, self.height = self.options["width"], self.options["height"]
         self.strength = s.sky_strength
         self.matrix = compat.rec709_to_working_matrix()
         self.working_space = compat.working_space()
         library = native.version()
-        sky = {"width": self.width, "height": self.height, "view_samples": self.samples, "chapman": self.chapman,
-               "grid": self.grid, "multiple_scattering": self.multiple_scattering, "sun_disc": False,
-               "pixels": self.working_space, "matrix": [list(r) for r in self.matrix]}
+        sky = dict(self.options, pixels=self.working_space, matrix=[list(r) for r in self.matrix])
         old = _read_manifest(manifest_path(self.folder, self.scene_name))
         self.manifest = {k: v for k, v in old.items()
                          if isinstance(v, dict) and os.path.isfile(os.path.join(self.folder, str(v.get("file"))))}
@@ -178,10 +172,8 @@ class BakePlan(Plan):
         on_main = threading.current_thread() is threading.main_thread()
         for i, (frame, spec) in enumerate(self.todo):
             self.status = "frame %d (%d of %d to render)" % (frame, i + 1, n)
-            pixels, metadata = native.render_sky(
-                spec, width=self.width, height=self.height, view_samples=self.samples, chapman=self.chapman,
-                sun_disc=False, grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress,
-                progress_range=(i / n, (i + 1) / n))
+            pixels, metadata = native.render_sky(spec, progress=progress, progress_range=(i / n, (i + 1) / n),
+                                                 **self.options)
             compat.convert_pixels(pixels, self.matrix)
             item = (frame, pixels[::-1].ravel(), metadata)  # Blender's rows start at the bottom
             if on_main:
@@ -419,27 +411,3 @@ def _swap_back_world(scene, old_world):
     scene.world = old_world
     if staged is not None and staged != old_world and staged.users == 0:
         bpy.data.worlds.remove(staged)
-
-
-class AIRMASS_OT_bake_sky_animation(JobOperatorMixin, bpy.types.Operator):
-    """Render a sky per frame of the scene (sun from place and time, or from the Sun lamp) as an EXR sequence,
-    show it in the World and keyframe the Sun lamp, so the .blend renders the animation without the add-on"""
-    bl_idname = "airmass.bake_sky_animation"
-    bl_label = "Bake Sky Animation"
-    bl_options = {"REGISTER", "UNDO"}
-
-    def make_plan(self, context):
-        return BakePlan(context)
-
-
-CLASSES = (AIRMASS_OT_bake_sky_animation,)
-
-
-def register():
-    for c in CLASSES:
-        bpy.utils.register_class(c)
-
-
-def unregister():
-    for c in reversed(CLASSES):
-        bpy.utils.unregister_class(c)

@@ -144,6 +144,15 @@ def build_sky_image(name, width, height, flat, metadata, working_space):
     return image
 
 
+def sky_options(settings, sun_disc=None):
+    """native.render_sky's keyword arguments from the panel's quality settings (`sun_disc`: None
+    takes the setting's)."""
+    return {"width": settings.sky_width, "height": native.sky_height(settings.sky_width),
+            "view_samples": settings.view_samples, "chapman": settings.chapman,
+            "sun_disc": settings.sun_disc if sun_disc is None else sun_disc, "grid": settings.sky_grid,
+            "multiple_scattering": settings.multiple_scattering}
+
+
 class SkyPlan(Plan):
     label = "Generate Sky"
 
@@ -155,13 +164,8 @@ class SkyPlan(Plan):
         native.validate_scene(self.spec)  # fail before any work, with the field's name
         self.folder = resolve_output_folder(s, optional=True)  # None: packed only (unsaved .blend)
         self.path = sky_path(scene, self.folder) if self.folder else None
-        self.width = s.sky_width
-        self.height = native.sky_height(self.width)
-        self.samples = s.view_samples
-        self.chapman = s.chapman
-        self.sun_disc = s.sun_disc
-        self.grid = s.sky_grid
-        self.multiple_scattering = s.multiple_scattering
+        self.options = sky_options(s)
+        self.width, self.height = self.options["width"], self.options["height"]
         self.strength = s.sky_strength
         # Read on the main thread; applied to the pixels on the worker.
         self.matrix = compat.rec709_to_working_matrix()
@@ -169,9 +173,7 @@ class SkyPlan(Plan):
         self.summary = None
 
     def work(self, progress):
-        pixels, metadata = native.render_sky(
-            self.spec, width=self.width, height=self.height, view_samples=self.samples, chapman=self.chapman,
-            sun_disc=self.sun_disc, grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress)
+        pixels, metadata = native.render_sky(self.spec, progress=progress, **self.options)
         compat.convert_pixels(pixels, self.matrix)
         # Blender's image rows start at the bottom; the library's row 0 is the zenith.
         return pixels[::-1].ravel(), metadata

@@ -61,6 +61,18 @@ def invoke(op, **kw):
         return op("INVOKE_DEFAULT", **kw)
 
 
+def press_esc(next_step):
+    window = bpy.context.window_manager.windows[0]
+    window.event_simulate(type="ESC", value="PRESS")
+    window.event_simulate(type="ESC", value="RELEASE")
+    state["step"], state["t0"] = next_step, time.time()
+    return 0.2
+
+
+def worker_running():
+    return any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
+
+
 def ticker():
     state["ticks"] += 1  # counts while native work runs: the event loop is alive
     now = time.time()
@@ -118,15 +130,10 @@ def step():
             return finish()
         return 0.1
     if st == "esc":
-        window = bpy.context.window_manager.windows[0]
-        window.event_simulate(type="ESC", value="PRESS")
-        window.event_simulate(type="ESC", value="RELEASE")
-        state["step"], state["t0"] = "wait_cancel", time.time()
-        return 0.2
+        return press_esc("wait_cancel")
     if st == "wait_cancel":
         leftovers = [f for f in os.listdir(out) if f not in state["files"]]
-        running = any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
-        if not running:
+        if not worker_running():
             if leftovers:
                 fail("files left after Esc: %s" % leftovers)
             if len(bpy.data.images) != state["images"]:
@@ -153,7 +160,7 @@ def step():
         state["step"], state["t0"] = "wait_bake", time.time()
         return 0.1
     if st == "wait_bake":
-        running = any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
+        running = worker_running()
         env = scene.world.node_tree.nodes.get("Airmass Sky") if scene.world and scene.world.node_tree else None
         image = env.image if env is not None else None
         if not running and image is not None and image.name == "Airmass Sky Sequence":
@@ -177,14 +184,9 @@ def step():
             return finish()
         return 0.1
     if st == "bake_esc":
-        window = bpy.context.window_manager.windows[0]
-        window.event_simulate(type="ESC", value="PRESS")
-        window.event_simulate(type="ESC", value="RELEASE")
-        state["step"], state["t0"] = "wait_bake_cancel", time.time()
-        return 0.2
+        return press_esc("wait_bake_cancel")
     if st == "wait_bake_cancel":
-        running = any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
-        if not running:
+        if not worker_running():
             now = {f: open(os.path.join(out, f), "rb").read() for f in os.listdir(out)}
             if now != state["bake_files"]:
                 fail("Esc during a bake changed the files: %s" % sorted(set(now) ^ set(state["bake_files"])))
