@@ -206,7 +206,42 @@ def bake_process(args, tmp):
           % (state(scene, folder), before))
     with open(manifest, "wb") as f:
         f.write(manifest_bytes)
+    bake_from_lamp()
     return blend
+
+
+def bake_from_lamp():
+    """Sun From = Sun Lamp: the user's own lamp animation gives each frame's sun; it is kept, and
+    the lamp's light is keyframed for those suns (a new scene; the saved .blend is not touched)."""
+    from airmass_blender import native, sun
+    scene, out = T.fresh_scene("lamp")
+    s = scene.airmass
+    s.preset, s.basis, s.sky_width, s.multiple_scattering = "earth", "RGB", 16, False
+    scene.frame_start, scene.frame_end = 1, 2
+    data = bpy.data.lights.new("User Sun", type="SUN")
+    obj = bpy.data.objects.new("User Sun", data)
+    scene.collection.objects.link(obj)
+    s.sun_object = obj
+    suns = {1: (10.0, 100.0), 2: (20.0, 250.0)}
+    for frame, (e, r) in suns.items():
+        obj.rotation_euler = sun.lamp_rotation(math.radians(e), math.radians(r))
+        obj.keyframe_insert("rotation_euler", frame=frame)
+    action = obj.animation_data.action
+    s.bake_sun_source = "LAMP"
+    check(bpy.ops.airmass.bake_sky_animation() == {"FINISHED"}, "bake from the lamp did not finish")
+    check(obj.animation_data.action == action, "the lamp's own rotation animation was replaced")
+    with open(os.path.join(out, "Scene_sky_animation.json")) as f:
+        m = json.load(f)
+    for frame, (e, r) in suns.items():
+        entry = m["frames"][str(frame)]
+        close(entry["blender_elevation_deg"], e, abs_=1e-4, rel=0.0, what="frame %d elevation" % frame)
+        close(entry["blender_rotation_deg"], r, abs_=1e-4, rel=0.0, what="frame %d rotation" % frame)
+        scene.frame_set(frame)
+        spec = native.Spec(preset="earth")
+        spec.basis, spec.sun_elevation_deg, spec.sun_rotation_deg = 1, e, r
+        strength = max(native.sun_light(spec, chapman="airmass")["irradiance_rgb"])
+        close(obj.data.energy, strength, rel=1e-4, what="frame %d energy from the lamp's sun" % frame)
+    print("PASS bake from the Sun lamp's animation: its rotation kept, its light keyed per frame")
 
 
 # ---- process 2: a Blender without the add-on renders the saved file ------------------------------
