@@ -259,8 +259,10 @@ class BakePlan(Plan):
                 os.close(fd)
                 os.replace(final, backup)
                 backups.append(backup)
-            os.replace(self.staged.pop(frame), final)
+            # Registered before the rename, so a failing rename still gets its old file back.
             undo.append((lambda f=final, b=backup: os.replace(b, f) if b else _remove_quietly(f)))
+            os.replace(self.staged[frame], final)
+            del self.staged[frame]
 
     def _keyframe_lamp(self, scene, undo):
         """One keyframe per frame: energy, colour, angle and (Place and Time) rotation. The lamp's
@@ -331,7 +333,7 @@ class BakePlan(Plan):
             undo.append(lambda: bpy.data.images.remove(image))
             image.source = "SEQUENCE"
         compat.set_float_image_colorspace(image)
-        if bpy.data.filepath and self_relative(scene):
+        if bpy.data.filepath and _relative_output(scene):
             try:
                 image.filepath = bpy.path.relpath(first)
             except ValueError:  # another drive (Windows): keep the absolute path
@@ -396,7 +398,7 @@ class BakePlan(Plan):
             _remove_quietly(backup)
 
 
-def self_relative(scene):
+def _relative_output(scene):
     """Whether the Output Folder is relative to the .blend (then the sequence's path is too)."""
     return scene.airmass.output_folder.strip().startswith("//")
 
