@@ -1335,4 +1335,5 @@ def main():
         raise SystemExit("Blender add-on tests failed: " + ", ".join(failures))
 
 
-main()
+if __name__ == "__main__":  # imported by test_sky_bake.py for its helpers
+    main()
