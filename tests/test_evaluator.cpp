@@ -352,6 +352,7 @@ TEST(EvaluatorInSky, PixelIsTheSingleScatteringPixelPlusTheTablesRadianceInRgb) 
     scene.sun.azimuth_deg = 33.0;  // no mirror: every pixel evaluated
     SkySettings s = sky_settings(32, 16);
     s.grid = 0;
+    s.multiple_grid = 0;  // the tables along every ray (the interpolated view: test_table_store.cpp)
     const FloatImage with = render_sky(scene, s);  // tables computed inside
     SkySettings off = s;
     off.multiple_scattering = false;

@@ -13,6 +13,7 @@ import bpy
 V4_0 = (4, 0, 0)
 V4_2 = (4, 2, 0)
 V4_3 = (4, 3, 0)
+V4_4 = (4, 4, 0)  # slotted actions (AnimData.action_slot)
 V4_5 = (4, 5, 0)
 V5_0 = (5, 0, 0)
 
@@ -186,6 +187,28 @@ def set_world_sun_extraction(world, enabled):
     if not enabled:
         world.sun_threshold = 0.0
     return True
+
+
+# ---- animation ---------------------------------------------------------------------------------
+
+def action_state(idblock):
+    """(action, slot) an ID animates with, for restore_action_state; (None, None) without one.
+    4.4+ actions have slots (AnimData.action_slot); before, the slot is None."""
+    ad = idblock.animation_data
+    if ad is None:
+        return None, None
+    return ad.action, getattr(ad, "action_slot", None)
+
+
+def restore_action_state(idblock, state):
+    """Assigns the (action, slot) action_state() returned (None: no action)."""
+    action, slot = state
+    if action is None and idblock.animation_data is None:
+        return
+    ad = idblock.animation_data_create()
+    ad.action = action
+    if action is not None and slot is not None and at_least(V4_4):
+        ad.action_slot = slot
 
 
 # ---- lights and materials --------------------------------------------------------------------------

@@ -4,7 +4,11 @@ An operator describes its work as a Plan:
   * `work(progress)`  — pure computation (native calls, files); no bpy access, so it may
                         run on a worker thread; returns a result;
   * `finish(context, result)` — builds Blender data on the main thread;
-  * `abort()`         — removes whatever `work` wrote (called on failure/cancel).
+  * `abort()`         — removes whatever `work` wrote (called on failure/cancel);
+  * `drain(context)`  — optional, main thread: hands over what `work` produced so far (a
+                        worker may queue results that need bpy, e.g. images to encode);
+                        called on every timer tick while the work runs and once before
+                        `finish`.
 
 `execute` runs the work on the calling thread with wm.progress_* (no-ops in background
 mode), so scripts and tests get a synchronous, deterministic operator. `invoke` (from the
@@ -41,6 +45,9 @@ class Plan:
     def abort(self):
         pass
 
+    def drain(self, context):
+        pass
+
     label = "Airmass"
 
 
@@ -59,6 +66,8 @@ class JobOperatorMixin:
     _plan = None
     _progress = None
     _outcome = None
+    _outcome_error = None
+    _shown_status = None
 
     def make_plan(self, context):
         raise NotImplementedError
@@ -113,6 +122,8 @@ class JobOperatorMixin:
             self.report({"ERROR"}, describe(e))
             return {"CANCELLED"}
         self._outcome = None
+        self._outcome_error = None
+        self._shown_status = None
 
         def run():
             try:
@@ -135,7 +146,13 @@ class JobOperatorMixin:
         if event.type != "TIMER":
             return {"RUNNING_MODAL"} if event.type == "ESC" else {"PASS_THROUGH"}
         context.window_manager.progress_update(int(1000 * self._progress.fraction))
-        if self._plan.status:
+        try:
+            self._plan.drain(context)
+        except Exception as e:  # noqa: BLE001 — the worker stops at its next poll
+            self._progress.cancel()
+            self._outcome_error = e
+        if self._plan.status and self._plan.status != self._shown_status:  # each change redraws the window
+            self._shown_status = self._plan.status
             context.workspace.status_text_set("%s: %s… (Esc to cancel)" % (self._plan.label, self._plan.status))
         if self._thread.is_alive():
             return {"RUNNING_MODAL"}
@@ -148,8 +165,11 @@ class JobOperatorMixin:
         context.workspace.status_text_set(None)
         self._progress.close()
         kind, value = self._outcome or ("error", RuntimeError("the worker thread ended without a result"))
+        if self._outcome_error is not None:  # drain failed: that error, not the cancel it caused
+            kind, value = "error", self._outcome_error
         if kind == "ok":
             try:
+                self._plan.drain(context)
                 self._plan.finish(context, value)
             except Exception as e:  # noqa: BLE001
                 self._plan.abort()

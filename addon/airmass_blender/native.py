@@ -4,7 +4,7 @@ Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and fr
 plain Python tests. The library is looked up next to this file (the add-on zip bundles
 it: libairmass_c.so on Linux, airmass_c.dll on Windows) unless the environment variable
 AIRMASS_C_LIBRARY names another file. The library has no shared dependencies beyond the
-C/C++ runtime (C ABI 4: it writes no files, the host stores what it returns; every struct's
+C/C++ runtime (C ABI 5: it writes no files, the host stores what it returns; every struct's
 struct_size is set here from ctypes.sizeof of its mirror, and the library refuses another size).
 
 Every wrapper raises NativeError (with the library's status and message) on failure, so
@@ -18,7 +18,7 @@ import os
 import sys
 import threading
 
-ABI_VERSION = 4
+ABI_VERSION = 5
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 # File name of the library per platform (sys.platform prefix → name). The add-on zip carries
 # the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
@@ -135,6 +135,31 @@ class SunLight(ctypes.Structure):
     ]
 
 
+class SolarQuery(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("latitude_deg", ctypes.c_double),
+        ("longitude_deg", ctypes.c_double),
+        ("utc", ctypes.c_char_p),
+        ("site_elevation_m", ctypes.c_double),
+        ("delta_t_s", ctypes.c_double),
+        ("delta_ut1_s", ctypes.c_double),
+    ]
+
+
+class SunPosition(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("elevation_deg", ctypes.c_double),
+        ("azimuth_deg", ctypes.c_double),
+        ("zenith_deg", ctypes.c_double),
+        ("blender_elevation_deg", ctypes.c_double),
+        ("blender_rotation_deg", ctypes.c_double),
+        ("julian_day", ctypes.c_double),
+        ("delta_t_s", ctypes.c_double),
+    ]
+
+
 class VdbOptions(ctypes.Structure):
     _fields_ = [
         ("struct_size", ctypes.c_uint32),
@@ -174,6 +199,9 @@ _SIGNATURES = {
                                             ctypes.c_void_p, _SIZE]),
     "airmass_sun_light_at_observer": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.c_char_p,
                                                        ctypes.POINTER(SunLight), ctypes.c_void_p, _SIZE]),
+    "airmass_solar_query_init": (ctypes.c_int32, [ctypes.POINTER(SolarQuery)]),
+    "airmass_solar_position": (ctypes.c_int32, [ctypes.POINTER(SolarQuery), ctypes.POINTER(SunPosition),
+                                                ctypes.c_void_p, _SIZE]),
     "airmass_vdb_options_init": (ctypes.c_int32, [ctypes.POINTER(VdbOptions)]),
     "airmass_analytic_density_json": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                        _OUT, ctypes.c_void_p, _SIZE]),
@@ -474,8 +502,9 @@ def sky_height(width, height=0):
 
 
 def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True, upper_only=False,
-               threads=0, grid=None, multiple_scattering=True, progress=None):
-    """Renders the sky in memory: (pixels, metadata).
+               threads=0, grid=None, multiple_scattering=True, progress=None, progress_range=(0.0, 1.0)):
+    """Renders the sky in memory: (pixels, metadata). `progress_range`: the part of `progress`
+    this call reports (a task of several calls).
 
     pixels: numpy float32 array (height, width, 4), linear Rec.709 RGBA in the sky texture's
     units, row 0 = the TOP row (straight up; Blender's image rows start at the bottom, so a
@@ -509,7 +538,7 @@ def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_
     meta = ctypes.c_void_p()
     job_ptr, fn = None, None
     if progress is not None:
-        job, fn = progress._job()
+        job, fn = progress._job(*progress_range)
         job_ptr = ctypes.byref(job)
     status = lib.airmass_render_sky(ctypes.byref(c_spec), ctypes.byref(opts),
                                     pixels.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), count, job_ptr,
@@ -542,6 +571,29 @@ def sun_light(spec, chapman=None):
         "angular_diameter_deg": out.angular_diameter_deg,
         "below_horizon": bool(out.below_horizon),
     }
+
+
+def solar_position(latitude_deg, longitude_deg, utc, delta_t_s=None, site_elevation_m=0.0):
+    """The sun at a place and a UTC time (NREL SPA, no refraction; what `airmass sun` prints):
+    dict with elevation_deg, azimuth_deg (from north, east = 90), zenith_deg,
+    blender_elevation_deg, blender_rotation_deg (Sky Texture angles, +Y north), julian_day,
+    delta_t_s. `utc` is ISO 8601 with a zone ("2026-06-21T04:00:00Z")."""
+    lib = library()
+    query = SolarQuery()
+    _init_struct(lib.airmass_solar_query_init, query, "airmass_solar_query")
+    utc_bytes = _bytes(utc)
+    query.latitude_deg = float(latitude_deg)
+    query.longitude_deg = float(longitude_deg)
+    query.utc = utc_bytes
+    query.site_elevation_m = float(site_elevation_m)
+    query.delta_t_s = _NAN if delta_t_s is None else float(delta_t_s)
+    out = SunPosition()
+    out.struct_size = ctypes.sizeof(SunPosition)
+    buf = _message_buffer()
+    status = lib.airmass_solar_position(ctypes.byref(query), ctypes.byref(out), buf, _MESSAGE_SIZE)
+    del utc_bytes
+    _check(lib, status, buf)
+    return {name: getattr(out, name) for name, _ in SunPosition._fields_ if name != "struct_size"}
 
 
 def _vdb_options(lib, region="planet", unit="km", origin_center=False, voxel_size=None, box=None,

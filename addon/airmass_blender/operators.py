@@ -1,5 +1,5 @@
-"""The operators: airmass.generate_sky, airmass.sun_sync, airmass.create_volume,
-airmass.compare, and the small helpers the panel uses.
+"""The operators: airmass.generate_sky, airmass.sun_sync, airmass.bake_sky_animation,
+airmass.create_volume, airmass.compare, and the small helpers the panel uses.
 
 Every operator reports failures with self.report({'ERROR'}, message) (a RuntimeError when
 called through bpy.ops from a script) and leaves nothing half-made: work is done first,
@@ -11,7 +11,7 @@ import traceback
 import bpy
 from bpy.props import EnumProperty
 
-from . import compare, native, sun, volume, world
+from . import animation, compare, native, sun, volume, world
 from .jobs import JobOperatorMixin, describe
 from .properties import SettingsError, refresh_constituents
 
@@ -54,6 +54,17 @@ class AIRMASS_OT_sun_sync(bpy.types.Operator):
         self.report({"INFO"}, "Sun lamp '%s': %.4g W/m², colour (%.3f, %.3f, %.3f)"
                     % (obj.name, obj.data.energy, *obj.data.color))
         return {"FINISHED"}
+
+
+class AIRMASS_OT_bake_sky_animation(JobOperatorMixin, bpy.types.Operator):
+    """Render a sky per frame of the scene (sun from place and time, or from the Sun lamp) as an EXR sequence,
+    show it in the World and keyframe the Sun lamp, so the .blend renders the animation without the add-on"""
+    bl_idname = "airmass.bake_sky_animation"
+    bl_label = "Bake Sky Animation"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def make_plan(self, context):
+        return animation.BakePlan(context)
 
 
 class AIRMASS_OT_create_volume(JobOperatorMixin, bpy.types.Operator):
@@ -117,8 +128,8 @@ class AIRMASS_OT_reload_library(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (AIRMASS_OT_generate_sky, AIRMASS_OT_sun_sync, AIRMASS_OT_create_volume, AIRMASS_OT_compare,
-           AIRMASS_OT_refresh_constituents, AIRMASS_OT_reload_library)
+CLASSES = (AIRMASS_OT_generate_sky, AIRMASS_OT_sun_sync, AIRMASS_OT_bake_sky_animation, AIRMASS_OT_create_volume,
+           AIRMASS_OT_compare, AIRMASS_OT_refresh_constituents, AIRMASS_OT_reload_library)
 
 
 def register():

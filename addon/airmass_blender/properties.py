@@ -146,6 +146,31 @@ class AirmassSettings(bpy.types.PropertyGroup):
         name="Live Sync", default=False,
         description="Keep the Sun lamp and these settings in sync while either changes")
 
+    # -- place and time, and Bake Sky Animation (animation.py; docs/sun.md)
+    bake_sun_source: EnumProperty(
+        name="Sun From", default="PLACE_TIME",
+        items=[("PLACE_TIME", "Place and Time", "The sun of Latitude/Longitude at Date + Time (UTC) at each frame "
+                                                "(NREL SPA, as `airmass sun`); the Sun lamp's rotation is keyframed"),
+               ("LAMP", "Sun Lamp", "The Sun lamp's own (animated) direction at each frame; its rotation is kept")],
+        description="Where Bake Sky Animation takes each frame's sun from")
+    latitude: FloatProperty(
+        name="Latitude (°)", default=48.8566, min=-90.0, max=90.0, precision=4,
+        description="Place on Earth, degrees north (negative: south). Animatable")
+    longitude: FloatProperty(
+        name="Longitude (°)", default=2.3522, min=-180.0, max=180.0, precision=4,
+        description="Place on Earth, degrees east (negative: west). Animatable")
+    date: StringProperty(
+        name="Date (UTC)", default="2026-06-21",
+        description="Day of the animation, YYYY-MM-DD (UTC); Time counts hours from its 00:00 UTC")
+    utc_hours: FloatProperty(
+        name="Time (UTC h)", default=12.0, min=-240.0, max=264.0, precision=4,
+        description="Hours after 00:00 UTC of Date (beyond 24 runs into the next days). Animatable: keyframe it "
+                    "to move the sun, or use Minutes per Frame")
+    minutes_per_frame: FloatProperty(
+        name="Minutes per Frame", default=0.0, min=0.0, max=1440.0, precision=3,
+        description="Added per frame after the scene's first: frame f shows Time(f) + (f - start)·this. 0 when "
+                    "Time is keyframed")
+
     # -- planet overrides
     override_planet: BoolProperty(
         name="Override Planet", default=False, update=_scene_changed,

@@ -61,7 +61,7 @@ def find_lamp(scene):
     return None
 
 
-def _new_lamp(scene):
+def new_lamp(scene):
     data = bpy.data.lights.new(LAMP_NAME, type="SUN")
     compat.set_light_shadow(data, True)
     obj = bpy.data.objects.new(LAMP_NAME, data)
@@ -74,8 +74,9 @@ def has_atmosphere_volume(scene):
     return any(o.get(ROLE) == "atmosphere" for o in scene.objects)
 
 
-def lamp_light(scene, top=None):
-    """(strength W/m², colour, angle rad, light dict) of the sun (native call).
+def lamp_light(scene, top=None, spec=None):
+    """(strength W/m², colour, angle rad, light dict) of the sun (native call); `spec`: the
+    library scene (None: make_spec of the settings; Bake Sky Animation passes each frame's).
 
     Without an Airmass volume in the scene the lamp carries the sunlight transmitted to the
     observer (the sky texture already holds the atmosphere). With one, Cycles attenuates the
@@ -84,7 +85,7 @@ def lamp_light(scene, top=None):
     s = scene.airmass
     if top is None:
         top = has_atmosphere_volume(scene)
-    light = native.sun_light(make_spec(s), chapman=s.chapman)
+    light = native.sun_light(make_spec(s) if spec is None else spec, chapman=s.chapman)
     rgb = light["irradiance_top_rgb" if top else "irradiance_rgb"]
     strength = max(rgb)
     colour = tuple(c / strength for c in rgb) if strength > 0.0 else (1.0, 1.0, 1.0)
@@ -115,7 +116,7 @@ def settings_to_lamp(scene, create=True):
         return None
     strength, colour, angle, _ = lamp_light(scene)
     if obj is None:
-        obj = _new_lamp(scene)
+        obj = new_lamp(scene)
     with _Guard():
         obj.rotation_mode = "XYZ"
         obj.rotation_euler = lamp_rotation(s.sun_elevation, s.sun_rotation)

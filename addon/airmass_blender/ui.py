@@ -144,6 +144,33 @@ class AIRMASS_PT_world_quality(AirmassWorldPanel, bpy.types.Panel):
         layout.prop(s, "sky_strength")
 
 
+class AIRMASS_PT_world_animation(AirmassWorldPanel, bpy.types.Panel):
+    bl_label = "Sky Animation"
+    bl_parent_id = "AIRMASS_PT_world"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = True  # the place and time are animatable
+        s = context.scene.airmass
+        layout.prop(s, "bake_sun_source")
+        if s.bake_sun_source == "PLACE_TIME":
+            col = layout.column(align=True)
+            col.prop(s, "latitude")
+            col.prop(s, "longitude")
+            col = layout.column(align=True)
+            col.prop(s, "date")
+            col.prop(s, "utc_hours")
+            col.prop(s, "minutes_per_frame")
+        layout.label(text="Frames %d–%d, %d px wide, into the Output Folder"
+                     % (context.scene.frame_start, context.scene.frame_end, s.sky_width))
+        row = layout.row()
+        row.scale_y = 1.3
+        row.enabled = native.load_error() is None
+        row.operator("airmass.bake_sky_animation", icon="RENDER_ANIMATION")
+
+
 class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
     bl_label = "Atmosphere Volume"
     bl_parent_id = "AIRMASS_PT_world"
@@ -246,7 +273,7 @@ class AIRMASS_PT_view3d(bpy.types.Panel):
 
 
 CLASSES = (AIRMASS_PT_world, AIRMASS_PT_world_planet, AIRMASS_PT_world_constituents, AIRMASS_PT_world_quality,
-           AIRMASS_PT_world_volume, AIRMASS_PT_world_compare, AIRMASS_PT_view3d)
+           AIRMASS_PT_world_animation, AIRMASS_PT_world_volume, AIRMASS_PT_world_compare, AIRMASS_PT_view3d)
 
 
 def register():

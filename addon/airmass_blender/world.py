@@ -123,6 +123,36 @@ def _restore_world(scene, old_image):
         env.image = old_image
 
 
+def build_sky_image(name, width, height, flat, metadata, working_space):
+    """A new packed 32-bit float image of `flat` (width·height·4 floats, bottom row first, in the
+    working space): Blender packs a float image as OpenEXR, so bytes(image.packed_file.data) is
+    the EXR file. The library's metadata become custom properties. Removed again on failure."""
+    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    try:
+        compat.set_float_image_colorspace(image)
+        compat.prepare_float_image(image)
+        image.pixels.foreach_set(flat)
+        image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
+        if image.packed_file is None or tuple(image.size) != (width, height):
+            raise RuntimeError("Blender could not pack the sky image")
+        for key, value in metadata.items():
+            image[key] = value
+        image[PIXELS_KEY] = "linear Rec.709 -> %s" % working_space
+    except Exception:
+        bpy.data.images.remove(image)
+        raise
+    return image
+
+
+def sky_options(settings, sun_disc=None):
+    """native.render_sky's keyword arguments from the panel's quality settings (`sun_disc`: None
+    takes the setting's)."""
+    return {"width": settings.sky_width, "height": native.sky_height(settings.sky_width),
+            "view_samples": settings.view_samples, "chapman": settings.chapman,
+            "sun_disc": settings.sun_disc if sun_disc is None else sun_disc, "grid": settings.sky_grid,
+            "multiple_scattering": settings.multiple_scattering}
+
+
 class SkyPlan(Plan):
     label = "Generate Sky"
 
@@ -134,13 +164,8 @@ class SkyPlan(Plan):
         native.validate_scene(self.spec)  # fail before any work, with the field's name
         self.folder = resolve_output_folder(s, optional=True)  # None: packed only (unsaved .blend)
         self.path = sky_path(scene, self.folder) if self.folder else None
-        self.width = s.sky_width
-        self.height = native.sky_height(self.width)
-        self.samples = s.view_samples
-        self.chapman = s.chapman
-        self.sun_disc = s.sun_disc
-        self.grid = s.sky_grid
-        self.multiple_scattering = s.multiple_scattering
+        self.options = sky_options(s)
+        self.width, self.height = self.options["width"], self.options["height"]
         self.strength = s.sky_strength
         # Read on the main thread; applied to the pixels on the worker.
         self.matrix = compat.rec709_to_working_matrix()
@@ -148,9 +173,7 @@ class SkyPlan(Plan):
         self.summary = None
 
     def work(self, progress):
-        pixels, metadata = native.render_sky(
-            self.spec, width=self.width, height=self.height, view_samples=self.samples, chapman=self.chapman,
-            sun_disc=self.sun_disc, grid=self.grid, multiple_scattering=self.multiple_scattering, progress=progress)
+        pixels, metadata = native.render_sky(self.spec, progress=progress, **self.options)
         compat.convert_pixels(pixels, self.matrix)
         # Blender's image rows start at the bottom; the library's row 0 is the zenith.
         return pixels[::-1].ravel(), metadata
@@ -159,18 +182,9 @@ class SkyPlan(Plan):
         flat, metadata = result
         scene = context.scene
         old = bpy.data.images.get(IMAGE_NAME)
-        image = bpy.data.images.new(IMAGE_NAME + " (new)", self.width, self.height, alpha=True, float_buffer=True)
+        image = build_sky_image(IMAGE_NAME + " (new)", self.width, self.height, flat, metadata, self.working_space)
         staged = None
         try:
-            compat.set_float_image_colorspace(image)
-            compat.prepare_float_image(image)
-            image.pixels.foreach_set(flat)
-            image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
-            if image.packed_file is None or tuple(image.size) != (self.width, self.height):
-                raise RuntimeError("Blender could not pack the sky image")
-            for key, value in metadata.items():
-                image[key] = value
-            image[PIXELS_KEY] = "linear Rec.709 -> %s" % self.working_space
             if self.path:
                 staged = stage_file(self.path, bytes(image.packed_file.data))
                 image.filepath_raw = self.path  # stays packed; the file is its unpacked twin

@@ -5,6 +5,7 @@
 // buffer. Long calls run on a worker thread while the calling thread reports progress,
 // so a host's callback always runs on the thread that called us (Python's GIL and
 // Blender's main-thread rules both need that).
+#include "airmass/solar_position.hpp"
 #include "airmass/sun_light.hpp"
 #include "airmass/version.hpp"
 #include "airmass/airmass_c.h"
@@ -339,6 +340,49 @@ int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char
         result.angular_diameter_deg = light.angular_diameter_deg;
         result.below_horizon = light.below_horizon ? 1 : 0;
         *out = result;
+    });
+}
+
+
+int32_t airmass_solar_query_init(airmass_solar_query* query) {
+    if (!init_size_ok(query)) return AIRMASS_INVALID_ARGUMENT;
+    *query = airmass_solar_query{};
+    query->struct_size = sizeof(airmass_solar_query);
+    query->utc = nullptr;
+    query->site_elevation_m = 0.0;
+    query->delta_t_s = std::numeric_limits<double>::quiet_NaN();
+    query->delta_ut1_s = 0.0;
+    return AIRMASS_OK;
+}
+
+int32_t airmass_solar_position(const airmass_solar_query* query, airmass_sun_position* out, char* message,
+                               size_t message_size) {
+    return guarded(message, message_size, [&] {
+        require_struct(query, "solar_query");
+        require_struct(out, "sun_position");
+        if (!query->utc) throw AbiError(AIRMASS_INVALID_ARGUMENT, "solar_query.utc: NULL (an ISO 8601 time with zone)");
+        try {
+            airmass::SolarPositionInput input;
+            input.latitude_deg = query->latitude_deg;
+            input.longitude_deg = query->longitude_deg;
+            input.time = airmass::parse_utc(query->utc, "utc");
+            input.elevation_m = query->site_elevation_m;
+            if (given(query->delta_t_s)) input.delta_t_s = query->delta_t_s;
+            input.delta_ut1_s = query->delta_ut1_s;
+            const airmass::SolarPosition p = airmass::solar_position(input);  // validates
+            airmass_sun_position result{};
+            result.struct_size = sizeof(airmass_sun_position);
+            result.elevation_deg = p.elevation_deg;
+            result.azimuth_deg = p.azimuth_deg;
+            result.zenith_deg = p.zenith_deg;
+            result.blender_elevation_deg = p.blender_elevation_deg;
+            result.blender_rotation_deg = p.blender_rotation_deg;
+            result.julian_day = p.julian_day;
+            result.delta_t_s = p.delta_t_s;
+            *out = result;
+        } catch (const airmass::SolarPositionError& e) {
+            throw AbiError(AIRMASS_INVALID_ARGUMENT, e.what());
+        }
     });
 }
 

@@ -61,6 +61,7 @@ struct SkyOptions {
     int grid = -1;
     bool quiet = false;
     bool no_multiple = false;
+    int ms_grid = kSkyDefaultMultipleGrid;
     MsCliOptions ms;
     // sequences
     std::string time_range, fps, frames, frames_csv;
@@ -347,7 +348,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
     if (!o.quiet)
         std::fprintf(stderr, "sky: wrote frames %d-%d of %d (%dx%d) and %s (%.4f s, tables %s)\n", q.first, q.last,
                      q.count, settings.width, settings.height, csv_path.c_str(), seconds,
-                     settings.multiple_scattering ? "computed once" : "not used");
+                     settings.multiple_scattering ? ("once: " + table_cache_summary(o.ms)).c_str() : "not used");
 }
 
 }  // namespace
@@ -386,6 +387,10 @@ void add_sky_command(CLI::App& app) {
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
     cmd->add_flag("--no-multiple", o->no_multiple, "Single scattering only (no multiple-scattering tables)");
     add_ms_options(cmd, o->ms);
+    cmd->add_option("--ms-grid", o->ms_grid,
+                    "Multiple scattering on a sun-aligned grid of this many azimuth intervals, interpolated "
+                    "(0: integrated along every ray)")
+        ->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     cmd->add_option("--time-range", o->time_range,
                     "Sequence: START,END in ISO 8601 UTC (with --fps); -o must contain #### (docs/sun.md)");
@@ -421,6 +426,7 @@ void add_sky_command(CLI::App& app) {
         settings.threads = o->threads;
         settings.grid = o->grid;
         settings.multiple_scattering = !o->no_multiple;
+        settings.multiple_grid = o->ms_grid;
         apply_ms_options("sky", o->ms, settings.multiple, settings.multiple_samples, kSkyMaxMultipleSamples);
         try {
             validate(settings);
@@ -460,7 +466,9 @@ void add_sky_command(CLI::App& app) {
                          scene.basis.kind == SpectralBasis::Kind::rgb_schuler
                              ? "rgb-schuler"
                              : (std::to_string(scene.basis.wavelengths_nm.size()) + " wavelengths").c_str(),
-                         settings.multiple_scattering ? "single + multiple scattering" : "single scattering only",
+                         settings.multiple_scattering
+                             ? ("single + multiple scattering, " + table_cache_summary(o->ms)).c_str()
+                             : "single scattering only",
                          seconds);
     });
 }

@@ -20,9 +20,25 @@ void add_ms_options(CLI::App* cmd, MsCliOptions& o) {
     cmd->add_option("--ms-table", o.table,
                     "Table nodes ALTITUDE,VIEW_ZENITH,SUN_ZENITH,AZIMUTH (azimuth 0: automatic) "
                     "[default: 12,32,24,0; the error and cost of others: docs/multiple_scattering.md]");
+    cmd->add_flag("--no-cache", o.no_cache,
+                  "Compute the multiple-scattering tables afresh and do not keep them (the cache: "
+                  "$AIRMASS_CACHE_DIR, else $XDG_CACHE_HOME/airmass or ~/.cache/airmass; docs/sky.md)");
 }
 
-void apply_ms_options(const std::string& command, const MsCliOptions& o, MsSettings& s, int& samples,
+std::string table_cache_summary(const MsCliOptions& o) {
+    if (!o.store) return "tables computed (--no-cache)";
+    switch (o.store->last_load()) {
+        case DiskTableStore::Outcome::hit: return "tables from the cache";
+        case DiskTableStore::Outcome::rejected: return "tables computed, a bad cache entry replaced";
+        case DiskTableStore::Outcome::miss:
+            return o.store->last_problem().empty() ? "tables computed and cached"
+                                                   : "tables computed, not cached: " + o.store->last_problem();
+        case DiskTableStore::Outcome::none: break;
+    }
+    return "tables not used";
+}
+
+void apply_ms_options(const std::string& command, MsCliOptions& o, MsSettings& s, int& samples,
                       int max_samples) {
     s.mode = o.mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
     if (!(o.orders == 0 || (o.orders >= 2 && o.orders <= 1000)))
@@ -45,6 +61,9 @@ void apply_ms_options(const std::string& command, const MsCliOptions& o, MsSetti
     } catch (const std::invalid_argument& e) {
         throw CliError(command + ": --ms-table: " + e.what());  // --ms-orders is checked above
     }
+    o.store = o.no_cache ? nullptr
+                         : std::make_shared<DiskTableStore>(default_table_cache_dir(), default_table_cache_max_bytes());
+    s.store = o.store.get();
 }
 
 }  // namespace airmass::cli

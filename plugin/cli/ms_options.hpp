@@ -2,11 +2,13 @@
 // (docs/multiple_scattering.md): one definition of the flags, their ranges and messages.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "airmass/multiple_scattering.hpp"
+#include "airmass/table_cache.hpp"
 
 namespace airmass::cli {
 
@@ -15,14 +17,23 @@ struct MsCliOptions {
     int orders = MsSettings{}.max_order;
     int samples = 32;   // quadrature intervals per view ray (RenderSettings / SkySettings default)
     std::string table;  // "ALTITUDE,VIEW,SUN,AZIMUTH" node counts; empty: MsTableSize's defaults
+    bool no_cache = false;  // --no-cache: neither read nor write the table cache
+    // The disk cache the command's tables go through (set by apply_ms_options unless
+    // --no-cache); its last_load() says whether the tables were read from it.
+    std::shared_ptr<DiskTableStore> store;
 };
 
-// --ms-mode, --ms-orders, --ms-samples, --ms-table.
+// "tables from the cache", "tables computed and cached", "tables computed (--no-cache)": for
+// the commands' summary lines.
+std::string table_cache_summary(const MsCliOptions& options);
+
+// --ms-mode, --ms-orders, --ms-samples, --ms-table, --no-cache.
 void add_ms_options(CLI::App* cmd, MsCliOptions& options);
 
-// Checks the options and writes them into `settings` and `samples`; throws CliError naming
+// Checks the options and writes them into `settings` and `samples` (settings.store: the disk
+// cache, airmass/table_cache.hpp, unless --no-cache); throws CliError naming
 // "<command>: --option", the value and the allowed range.
-void apply_ms_options(const std::string& command, const MsCliOptions& options, MsSettings& settings, int& samples,
+void apply_ms_options(const std::string& command, MsCliOptions& options, MsSettings& settings, int& samples,
                       int max_samples);
 
 }  // namespace airmass::cli

@@ -4,11 +4,14 @@
 #include "airmass/evaluator.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "airmass/optical_depth.hpp"
+#include "airmass/parallel.hpp"
+#include "airmass/table_store.hpp"
 
 namespace airmass {
 
@@ -71,17 +74,84 @@ void Evaluator::radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOu
 }
 
 void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Vec3<double>> dirs,
-                         RadianceOut out) const {
+                         RadianceOut out, const MsView* view, std::span<double> multiple_inscatter) const {
     single_scattering_batch(atmosphere_, altitude_m, sun, dirs, out);
+    if (!multiple_inscatter.empty()) std::fill_n(multiple_inscatter.begin(), dirs.size() * wavelength_count(), 0.0);
     if (!tables_) return;
     const std::size_t nw = wavelength_count();
+    if (view && (view->altitude_m != altitude_m || view->sun.x != sun.x || view->sun.y != sun.y ||
+                 view->sun.z != sun.z || std::size_t(view->grid.channels) != 2 * nw))
+        throw std::invalid_argument("multiple-scattering view: made for another observer, sun or wavelength count");
     MsScratch scratch(nw);
     for (std::size_t k = 0; k < dirs.size(); ++k) {
-        multiple_scattering_radiance(atmosphere_, *tables_, ViewRay{altitude_m, dirs[k], sun},
-                                     {scratch.rayleigh, scratch.mie, scratch.total}, ms_view_samples_);
+        const std::span<double> inscatter =
+            multiple_inscatter.empty() ? std::span<double>{} : multiple_inscatter.subspan(k * nw, nw);
+        if (view) {
+            view->lookup(dirs[k], out.transmittance.subspan(k * nw, nw), scratch.total, inscatter);
+        } else {
+            multiple_scattering_radiance(atmosphere_, *tables_, ViewRay{altitude_m, dirs[k], sun},
+                                         {scratch.rayleigh, scratch.mie, scratch.total}, ms_view_samples_);
+            for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = scratch.rayleigh[w] + scratch.mie[w];
+        }
         double* L = out.radiance.data() + k * nw;
         for (std::size_t w = 0; w < nw; ++w) L[w] += scratch.total[w];
     }
+}
+
+void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double> out,
+                    std::span<double> inscatter) const {
+    const std::size_t nw = std::size_t(grid.channels) / 2;
+    SkyGrid::Cell cell;
+    const double theta = std::acos(std::clamp(d.z / std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z), -1.0, 1.0));
+    if (!grid.cell(theta, std::atan2(d.y, d.x), cell)) {
+        std::fill_n(out.begin(), nw, 0.0);
+        std::fill(inscatter.begin(), inscatter.end(), 0.0);
+        return;
+    }
+    double stack[2 * 64];
+    std::vector<double> heap;
+    double* v = stack;
+    if (nw > 64) {
+        heap.resize(2 * nw);
+        v = heap.data();
+    }
+    grid.interpolate(cell, std::span<double>(v, 2 * nw));
+    for (std::size_t w = 0; w < nw; ++w) out[w] = v[w] * (1.0 - T[w]) + v[nw + w] * T[w];
+    for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = v[w] * (1.0 - T[w]);
+}
+
+MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, int threads,
+                          const RenderHooks& hooks) const {
+    if (intervals < 2 || intervals > 16384)
+        throw std::invalid_argument("multiple-scattering view: intervals = " + std::to_string(intervals) +
+                                    ": must be in [2, 16384]");
+    const std::size_t nw = wavelength_count();
+    MsView view{altitude_m, sun,
+                SkyGrid::make(intervals, Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m),
+                              sun, int(2 * nw), false)};
+    if (!tables_) return view;
+    SkyGrid& g = view.grid;
+    parallel_for(0, std::size_t(g.rows()) * g.columns(), 16, threads, [&](std::size_t b, std::size_t e, int) {
+        MsScratch scratch(nw);
+        std::vector<double> T(nw), ray(nw), mie(nw), L(nw);
+        for (std::size_t n = b; n < e; ++n) {
+            if (hooks.cancel && hooks.cancel->requested()) return;
+            const int k = int(n / g.columns()), j = int(n % g.columns());
+            const ViewRay vr{altitude_m, g.node_direction(k, j), sun};
+            single_scattering(atmosphere_, vr, RadianceOut{T, ray, mie, L});  // its view transmittance
+            multiple_scattering_radiance(atmosphere_, *tables_, vr, {scratch.rayleigh, scratch.mie, scratch.total},
+                                         ms_view_samples_);
+            double* node = g.at(k, j);
+            for (std::size_t w = 0; w < nw; ++w) {
+                const double inscatter = scratch.rayleigh[w] + scratch.mie[w];
+                const double ground = scratch.total[w] - inscatter;
+                node[w] = 1.0 - T[w] > 1e-12 ? inscatter / (1.0 - T[w]) : 0.0;
+                node[nw + w] = T[w] > 1e-300 ? ground / T[w] : 0.0;
+            }
+        }
+    });
+    if (hooks.cancel && hooks.cancel->requested()) throw Cancelled("multiple-scattering view: cancelled");
+    return view;
 }
 
 void Evaluator::aerial_perspective(Vec3<double> from_m, Vec3<double> to_m, Vec3<double> sun, bool to_infinity,
@@ -115,8 +185,19 @@ std::shared_ptr<const MultipleScattering> compute_tables(const Atmosphere& atmos
         if (now > reported && hooks.work_done) hooks.work_done(now - reported, total);
         reported = std::max(reported, now);
     };
+    // A store keeps the tables between calls; diagnostics (keep_radiance) are never kept.
+    TableStore* store = m.keep_radiance ? nullptr : m.store;
+    std::string key;
+    if (store) {
+        key = ms_table_key(atmosphere, m);
+        if (auto kept = store->load(key)) {
+            if (units > 0 && hooks.work_done) hooks.work_done(units, total);
+            return kept;
+        }
+    }
     auto ms = std::make_shared<MultipleScattering>(precompute_multiple_scattering(atmosphere, m));
     if (units > reported && hooks.work_done) hooks.work_done(units - reported, total);
+    if (store) store->store(key, *ms);
     return ms;
 }
 

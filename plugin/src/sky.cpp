@@ -11,6 +11,7 @@
 #include <map>
 #include <new>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -24,6 +25,7 @@
 #include "airmass/optical_depth.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/sky_grid.hpp"
 #include "airmass/version.hpp"
 
 
@@ -108,6 +110,8 @@ void validate(const SkySettings& s) {
     range("grid", s.grid, -1, kSkyMaxGrid);
     if (s.grid > 0 && s.grid < 4) throw SkyError("grid = " + std::to_string(s.grid) + ": must be -1 (auto), 0 (off) or in [4, " + std::to_string(kSkyMaxGrid) + "]");
     range("multiple_samples", s.multiple_samples, 1, kSkyMaxMultipleSamples);
+    range("multiple_grid", s.multiple_grid, 0, kSkyMaxGrid);
+    if (s.multiple_grid == 1) throw SkyError("multiple_grid = 1: must be 0 (every ray) or in [2, " + std::to_string(kSkyMaxGrid) + "]");
     if (s.multiple_scattering) {
         try {
             validate(s.multiple);
@@ -289,67 +293,6 @@ void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage
 
 }  // namespace
 
-namespace {
-
-// Zenith angles that split the sphere for an observer at altitude h: rays with
-// θ < theta_space miss the atmosphere (0 inside it), rays with θ > theta_horizon hit the
-// ground. Written without subtracting radii: acos(R/r0) = atan2(sqrt(h(2R + h)), R).
-struct Horizon {
-    double theta_space = 0.0;
-    double theta_horizon = kPi / 2;
-};
-
-Horizon horizon_of(const Atmosphere& atm, double h) {
-    const double R = atm.planet_radius_m, top = atm.top_altitude_m;
-    Horizon hz;
-    hz.theta_horizon = kPi / 2 + std::atan2(std::sqrt(h * (2 * R + h)), R);
-    if (h > top) hz.theta_space = kPi / 2 + std::atan2(std::sqrt((h - top) * (2 * R + top + h)), R + top);
-    return hz;
-}
-
-// The sky grid (SkySettings::grid). Rows: two pieces of zenith angle meeting at the
-// horizon, node 0 of each next to the horizon; the fraction f ∈ [0, 1] of a piece's span
-// away from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1), i.e. rows 5× denser
-// at the horizon than at the far end (c = 0.25). Columns: azimuth from the sun ψ ∈ [0, π].
-struct SkyGrid {
-    static constexpr double kC = 0.25;
-    // Nodes next to the horizon sit this far inside their piece so that the evaluator sees
-    // an unambiguous sky or ground ray (the radiance is continuous up to the edge).
-    static constexpr double kEdge = 1e-7;
-    int intervals = 0;  // ψ intervals (G)
-    int rows_sky = 0, rows_ground = 0;
-    Horizon hz;
-    std::vector<double> rgb;  // (rows_sky + rows_ground) × (G + 1) × 3, pre-clamp linear Rec.709
-
-    static double f_of_x(double x) { return x * (x + kC) / (1.0 + kC); }
-    static double x_of_f(double f) { return 0.5 * (-kC + std::sqrt(kC * kC + 4.0 * (1.0 + kC) * f)); }
-
-    double sky_span() const { return hz.theta_horizon - hz.theta_space; }
-    double ground_span() const { return kPi - hz.theta_horizon; }
-    // Zenith angle of grid row k (sky rows first).
-    double row_theta(int k) const {
-        if (k < rows_sky) {
-            const double f = f_of_x(double(k) / (rows_sky - 1));
-            return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0);
-        }
-        const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1));
-        return std::min(hz.theta_horizon + f * ground_span(), kPi) + (k == rows_sky ? kEdge : 0.0);
-    }
-    // Continuous grid row of a zenith angle; −1 for directions that miss the atmosphere.
-    double row_of(double theta) const {
-        if (theta <= hz.theta_horizon) {
-            if (theta < hz.theta_space || sky_span() <= 0.0) return -1.0;
-            return x_of_f(std::clamp((hz.theta_horizon - theta) / sky_span(), 0.0, 1.0)) * (rows_sky - 1);
-        }
-        if (rows_ground == 0) return -1.0;
-        return rows_sky +
-               x_of_f(std::clamp((theta - hz.theta_horizon) / ground_span(), 0.0, 1.0)) * (rows_ground - 1);
-    }
-    const double* at(int row, int col) const { return rgb.data() + (std::size_t(row) * (intervals + 1) + col) * 3; }
-};
-
-}  // namespace
-
 int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
     if (settings.grid >= 0) return settings.grid;
     const int image_rows = settings.region == SkyRegion::upper ? (settings.height + 1) / 2 : settings.height;
@@ -381,18 +324,13 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     const bool upper = settings.region == SkyRegion::upper;
     const int image_rows = upper ? (H + 1) / 2 : H;  // rows whose centre is at or above the horizon
     const long key = mirror_key(in.sun, W);
-    const double sun_phi = std::atan2(in.sun.y, in.sun.x);
 
     // Per pixel or through the grid?
-    SkyGrid grid;
-    grid.hz = horizon_of(in.atmosphere, in.altitude_m);
+    const Horizon hz = Horizon::of(in.atmosphere.planet_radius_m, in.atmosphere.top_altitude_m, in.altitude_m);
     const int G = effective_sky_grid(scene, settings);
-    if (G > 0) {
-        grid.intervals = G;
-        grid.rows_sky = std::max(G / 2, 2) + 1;
-        grid.rows_ground = upper && grid.hz.theta_horizon >= kPi / 2 ? 0 : std::max(G / 2, 2) + 1;
-    }
-    const int grid_rows = grid.rows_sky + grid.rows_ground;
+    SkyGrid grid;
+    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(in.sun), 6, upper);  // RGB scattered, RGB ground
+    const int grid_rows = grid.rows();
     // The table precompute, when it runs here, counts as much as the image (it takes about
     // as long as a default 2048 × 1024 image's grid; docs/sky.md).
     const std::size_t image_work = std::size_t(grid_rows) + std::size_t(H);
@@ -410,10 +348,10 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     // Scratch per thread for one batch of rays.
     struct Scratch {
         std::vector<Vec3<double>> dirs;
-        std::vector<double> transmittance, rayleigh, mie, radiance;
+        std::vector<double> transmittance, rayleigh, mie, radiance, multiple_inscatter;
         void resize(std::size_t n, std::size_t nw) {
             dirs.resize(n);
-            for (auto* v : {&transmittance, &rayleigh, &mie, &radiance}) v->resize(n * nw);
+            for (auto* v : {&transmittance, &rayleigh, &mie, &radiance, &multiple_inscatter}) v->resize(n * nw);
         }
         RadianceOut out(std::size_t n, std::size_t nw) {
             return {{transmittance.data(), n * nw}, {rayleigh.data(), n * nw}, {mie.data(), n * nw},
@@ -421,67 +359,95 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         }
     };
     std::vector<Scratch> scratch(static_cast<std::size_t>(threads));
+    // Multiple scattering interpolated from the observer's view (MsView) unless asked per ray.
+    std::optional<MsView> view;
+    if (ctx.evaluator.tables() && settings.multiple_grid > 0)
+        view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), settings.multiple_grid, threads, hooks);
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate = [&](Scratch& s, std::size_t n) {
         ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
-                               s.out(n, nw));
+                               s.out(n, nw), view ? &*view : nullptr, {s.multiple_inscatter.data(), n * nw});
+    };
+    // The grid holds each node's light normalised by its view transmittance (as MsView does):
+    // what is scattered along the ray over (1 − T̄), what comes from the ground over T̄, T̄ the
+    // luminance-weighted mean of T(λ). A ray just below the horizon meets the ground hundreds
+    // of kilometres away, one a pixel lower a few hundred metres away; its light follows
+    // (1 − T) and T, the ratios stay smooth. Each pixel multiplies back by its own row's T̄
+    // (T depends only on the zenith angle), computed exactly below.
+    std::vector<double> luminance_weight(nw);
+    {
+        double sum = 0.0;
+        for (std::size_t w = 0; w < nw; ++w) {
+            luminance_weight[w] = std::max(0.0, 0.2126 * ctx.to_rgb.matrix[0][w] + 0.7152 * ctx.to_rgb.matrix[1][w] +
+                                                    0.0722 * ctx.to_rgb.matrix[2][w]);
+            sum += luminance_weight[w];
+        }
+        for (double& v : luminance_weight) v = sum > 0.0 ? v / sum : 1.0 / double(nw);
+    }
+    auto mean_transmittance = [&](const double* T) {
+        double t = 0.0;
+        for (std::size_t w = 0; w < nw; ++w) t += luminance_weight[w] * T[w];
+        return std::clamp(t, 0.0, 1.0);
     };
 
     if (G > 0) {
         // ---- the grid, then every pixel interpolated from it ----
-        const int cols = G + 1;
-        grid.rgb.assign(std::size_t(grid_rows) * cols * 3, 0.0);
+        const int cols = grid.columns();
         {
             parallel_for(0, std::size_t(grid_rows), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
                 Scratch& s = scratch[std::size_t(worker)];
                 s.resize(cols, nw);
                 for (int k = int(rb); k < int(re); ++k) {
                     if (cancelled()) return;
-                    const double theta = grid.row_theta(k);
-                    const double st = std::sin(theta), ct = std::cos(theta);
-                    for (int j = 0; j < cols; ++j) {
-                        const double phi = sun_phi + kPi * j / G;
-                        s.dirs[j] = Vec3<double>(st * std::cos(phi), st * std::sin(phi), ct);
-                    }
+                    for (int j = 0; j < cols; ++j) s.dirs[j] = grid.node_direction(k, j);
                     evaluate(s, cols);
+                    std::vector<double> scattered(nw), ground(nw);
                     for (int j = 0; j < cols; ++j) {
-                        const Vec3d rgb = ctx.to_rgb.apply(std::span<const double>(s.radiance.data() + j * nw, nw));
-                        double* out = grid.rgb.data() + (std::size_t(k) * cols + j) * 3;
-                        for (int c = 0; c < 3; ++c) out[c] = rgb[c];
+                        const std::size_t o = std::size_t(j) * nw;
+                        for (std::size_t w = 0; w < nw; ++w) {
+                            scattered[w] = s.rayleigh[o + w] + s.mie[o + w] + s.multiple_inscatter[o + w];
+                            ground[w] = s.radiance[o + w] - scattered[w];
+                        }
+                        const double T = mean_transmittance(s.transmittance.data() + o);
+                        const Vec3d a = ctx.to_rgb.apply(scattered), b = ctx.to_rgb.apply(ground);
+                        double* out = grid.at(k, j);
+                        for (int c = 0; c < 3; ++c) {
+                            out[c] = 1.0 - T > 1e-12 ? a[c] / (1.0 - T) : 0.0;
+                            out[3 + c] = T > 1e-300 ? b[c] / T : 0.0;
+                        }
                     }
                     report(1);
                 }
             });
         }
         if (cancelled()) throw Cancelled("sky: cancelled");
+        // T̄ of every image row (one ray per row, toward the sun's azimuth).
+        std::vector<double> row_transmittance(std::size_t(image_rows), 1.0);
+        parallel_for(0, std::size_t(image_rows), 64, threads, [&](std::size_t rb, std::size_t re, int worker) {
+            Scratch& s = scratch[std::size_t(worker)];
+            s.resize(re - rb, nw);
+            for (std::size_t y = rb; y < re; ++y) {
+                const double theta = kPi * (double(y) + 0.5) / H, st = std::sin(theta);
+                s.dirs[y - rb] = Vec3<double>(st * std::cos(grid.sun_phi), st * std::sin(grid.sun_phi), std::cos(theta));
+            }
+            evaluate(s, re - rb);
+            for (std::size_t y = rb; y < re; ++y)
+                row_transmittance[y] = mean_transmittance(s.transmittance.data() + (y - rb) * nw);
+        });
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
                 for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
                         const double theta = kPi * (y + 0.5) / H;
-                        const double fr = grid.row_of(theta);
-                        if (fr >= 0.0) {
-                            const int r0 = std::min(static_cast<int>(fr), grid_rows - 2);
-                            // never interpolate across the horizon: clamp to the piece's last row
-                            const int piece_end = r0 < grid.rows_sky ? grid.rows_sky - 1 : grid_rows - 1;
-                            const int r1 = std::min(r0 + 1, piece_end);
-                            const double wr = r1 > r0 ? fr - r0 : 0.0;
-                            for (int x = 0; x < W; ++x) {
-                                const double phi = kPi - kTwoPi * (x + 0.5) / W;
-                                const double psi = std::abs(std::remainder(phi - sun_phi, kTwoPi));
-                                const double fc = std::min(psi / kPi, 1.0) * G;
-                                const int c0 = std::min(static_cast<int>(fc), G - 1);
-                                const double wc = fc - c0;
-                                const double *a = grid.at(r0, c0), *b = grid.at(r0, c0 + 1), *c = grid.at(r1, c0),
-                                             *d = grid.at(r1, c0 + 1);
-                                float* px = image.at(x, y);
-                                for (int ch = 0; ch < 3; ++ch) {
-                                    const double v = (1 - wr) * ((1 - wc) * a[ch] + wc * b[ch]) +
-                                                     wr * ((1 - wc) * c[ch] + wc * d[ch]);
-                                    px[ch] = static_cast<float>(std::max(v, 0.0));
-                                }
-                            }
+                        const double T = row_transmittance[std::size_t(y)];
+                        SkyGrid::Cell cell;
+                        double v[6];
+                        for (int x = 0; x < W && grid.cell(theta, kPi - kTwoPi * (x + 0.5) / W, cell); ++x) {
+                            grid.interpolate(cell, v);
+                            float* px = image.at(x, y);
+                            for (int ch = 0; ch < 3; ++ch)
+                                px[ch] = static_cast<float>(std::max(v[ch] * (1.0 - T) + v[3 + ch] * T, 0.0));
                         }
                     }
                     report(1);
@@ -585,6 +551,7 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
         ms["geometric_tail"] = m.geometric_tail;
         ms["ray_samples"] = m.ray_samples;
         ms["view_ray_samples"] = settings.multiple_samples;
+        ms["view_grid"] = settings.multiple_grid;  // 0: integrated along every ray
         j["multiple"] = ms;
     }
     j["basis"] = scene.basis.kind == SpectralBasis::Kind::rgb_schuler ? "rgb-schuler" : "spectral";

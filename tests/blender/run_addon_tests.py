@@ -1340,5 +1340,5 @@ def main():
     run_tests(TESTS, sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [], "run_addon_tests.py")
 
 
-if __name__ == "__main__":  # Blender runs --python scripts as __main__; test_operator_faults.py imports
+if __name__ == "__main__":  # imported by test_sky_bake.py and test_operator_faults.py for helpers
     main()

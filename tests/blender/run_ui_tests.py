@@ -61,6 +61,18 @@ def invoke(op, **kw):
         return op("INVOKE_DEFAULT", **kw)
 
 
+def press_esc(next_step):
+    window = bpy.context.window_manager.windows[0]
+    window.event_simulate(type="ESC", value="PRESS")
+    window.event_simulate(type="ESC", value="RELEASE")
+    state["step"], state["t0"] = next_step, time.time()
+    return 0.2
+
+
+def worker_running():
+    return any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
+
+
 def ticker():
     state["ticks"] += 1  # counts while native work runs: the event loop is alive
     now = time.time()
@@ -118,25 +130,75 @@ def step():
             return finish()
         return 0.1
     if st == "esc":
-        window = bpy.context.window_manager.windows[0]
-        window.event_simulate(type="ESC", value="PRESS")
-        window.event_simulate(type="ESC", value="RELEASE")
-        state["step"], state["t0"] = "wait_cancel", time.time()
-        return 0.2
+        return press_esc("wait_cancel")
     if st == "wait_cancel":
         leftovers = [f for f in os.listdir(out) if f not in state["files"]]
-        running = any("airmass" in (t.name or "") for t in __import__("threading").enumerate())
-        if not running:
+        if not worker_running():
             if leftovers:
                 fail("files left after Esc: %s" % leftovers)
             if len(bpy.data.images) != state["images"]:
                 fail("images changed after Esc")
             elapsed = time.time() - state["t0"]
             print("PASS Esc cancelled Generate Sky (%.2f s after Esc), nothing left behind" % elapsed)
+            state["step"] = "bake"
+            return 0.1
+        if time.time() - state["t0"] > 60:
+            fail("Esc did not stop the work within 60 s")
+            return finish()
+        return 0.1
+    # Bake Sky Animation from the UI: frames rendered on the worker, encoded by the main thread's
+    # drain (jobs.Plan.drain); then Esc during a re-bake leaves the frames and the World as they were.
+    if st == "bake":
+        scene.frame_start, scene.frame_end = 1, 4
+        s.sky_width, s.view_samples, s.sky_grid = 64, 8, -1
+        s.utc_hours, s.minutes_per_frame = 4.0, 10.0
+        state["ticks"] = 0
+        result = invoke(bpy.ops.airmass.bake_sky_animation)
+        if result != {"RUNNING_MODAL"}:
+            fail("bake_sky_animation invoke returned %s" % result)
+            return finish()
+        state["step"], state["t0"] = "wait_bake", time.time()
+        return 0.1
+    if st == "wait_bake":
+        running = worker_running()
+        env = scene.world.node_tree.nodes.get("Airmass Sky") if scene.world and scene.world.node_tree else None
+        image = env.image if env is not None else None
+        if not running and image is not None and image.name == "Airmass Sky Sequence":
+            frames = sorted(f for f in os.listdir(out) if "_sky_0" in f)
+            if frames != ["Scene_sky_%04d.exr" % f for f in range(1, 5)] or image.source != "SEQUENCE":
+                fail("invoked bake: files %s, image source %s" % (frames, image.source))
+            print("PASS invoked Bake Sky Animation finished (%.2f s, %d timer ticks meanwhile)"
+                  % (time.time() - state["t0"], state["ticks"]))
+            state["bake_files"] = {f: open(os.path.join(out, f), "rb").read() for f in os.listdir(out)}
+            state["bake_image"] = (image.name, image.filepath)
+            s.latitude += 1.0  # every frame out of date ...
+            s.sky_width, s.sky_grid = 2048, 0  # ... and slow, so that Esc arrives while frame 1 renders
+            result = invoke(bpy.ops.airmass.bake_sky_animation)
+            if result != {"RUNNING_MODAL"}:
+                fail("second bake invoke returned %s" % result)
+                return finish()
+            state["step"], state["t0"] = "bake_esc", time.time()
+            return 0.5
+        if time.time() - state["t0"] > 120:
+            fail("invoked Bake Sky Animation did not finish in 120 s")
+            return finish()
+        return 0.1
+    if st == "bake_esc":
+        return press_esc("wait_bake_cancel")
+    if st == "wait_bake_cancel":
+        if not worker_running():
+            now = {f: open(os.path.join(out, f), "rb").read() for f in os.listdir(out)}
+            if now != state["bake_files"]:
+                fail("Esc during a bake changed the files: %s" % sorted(set(now) ^ set(state["bake_files"])))
+            env = scene.world.node_tree.nodes.get("Airmass Sky")
+            if (env.image.name, env.image.filepath) != state["bake_image"]:
+                fail("Esc during a bake changed the World's image")
+            print("PASS Esc cancelled Bake Sky Animation (%.2f s after Esc), files and World unchanged"
+                  % (time.time() - state["t0"]))
             state["step"] = "done"
             return finish()
         if time.time() - state["t0"] > 60:
-            fail("Esc did not stop the work within 60 s")
+            fail("Esc did not stop the bake within 60 s")
             return finish()
         return 0.1
     return None

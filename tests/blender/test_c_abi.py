@@ -305,6 +305,23 @@ def test_sky_multiple_scattering_switch():
     assert gains[45.0] > 1.05 and gains[-6.0] > 1.5 * gains[45.0], gains
 
 
+def test_solar_position():
+    """native.solar_position (ABI 5): the SPA report's worked example (17 October 2003 12:30:30 at
+    UT−7, Golden, Colorado; e0 = 39.872046°, azimuth 194.340241°), and errors naming the field."""
+    p = native.solar_position(39.742476, -105.1786, "2003-10-17T12:30:30-07:00", delta_t_s=67.0,
+                              site_elevation_m=1830.14)
+    assert abs(p["elevation_deg"] - 39.872046) < 2e-6 and abs(p["azimuth_deg"] - 194.340241) < 1e-5, p
+    assert p["delta_t_s"] == 67.0 and p["blender_rotation_deg"] == p["azimuth_deg"], p
+    # ΔT by default: Espenak & Meeus (about 64.5 s in 2003), which moves the sun by < 0.0002°.
+    q = native.solar_position(39.742476, -105.1786, "2003-10-17T19:30:30Z", site_elevation_m=1830.14)
+    assert 60.0 < q["delta_t_s"] < 70.0 and abs(q["elevation_deg"] - p["elevation_deg"]) < 2e-4, q
+    expect_error(lambda: native.solar_position(91.0, 0.0, "2026-06-21T12:00:00Z"), native.INVALID_ARGUMENT,
+                 "latitude_deg = 91")
+    expect_error(lambda: native.solar_position(0.0, 181.0, "2026-06-21T12:00:00Z"), native.INVALID_ARGUMENT,
+                 "longitude_deg")
+    expect_error(lambda: native.solar_position(0.0, 0.0, "2026-06-21T12:00:00"), native.INVALID_ARGUMENT, "utc")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--lib", required=True)
@@ -313,7 +330,8 @@ def main():
     native.reset()
     for fn in (test_version, test_null_and_struct_size, test_scene_errors_name_fields,
                test_sun_transmittance_vs_quadrature, test_settings_errors_name_the_option, test_concurrent_calls,
-               test_render_sky_buffer, test_analytic_density_and_vdb, test_sky_multiple_scattering_switch):
+               test_render_sky_buffer, test_analytic_density_and_vdb, test_sky_multiple_scattering_switch,
+               test_solar_position):
         case(fn)
     if FAILURES:
         print("FAILED:", ", ".join(FAILURES))

@@ -225,6 +225,48 @@ int main(int argc, char** argv) {
               msg);
         spec.sun_elevation_deg = 20.0;
     }
+    /* ---- the solar position: the SPA report's worked example (Reda & Andreas, NREL/TP-560-34302,
+     * its worked example): 17 October 2003 12:30:30 at UT-7, 39.742476 N 105.1786 W, 1830.14 m, dT 67 s;
+     * topocentric elevation without refraction e0 = 39.872046 deg, azimuth 194.340241 deg (to 2e-6 and
+     * 1e-5 deg: the printed tables' truncation moves the azimuth by 3e-6 deg, tests/test_solar_position.cpp). */
+    {
+        airmass_solar_query q;
+        memset(&q, 0, sizeof q);
+        q.struct_size = sizeof q;
+        const int32_t si = airmass_solar_query_init(&q);
+        check(si == AIRMASS_OK && isnan(q.delta_t_s) && q.utc == NULL, "solar_query_init: defaults", NULL);
+        q.latitude_deg = 39.742476;
+        q.longitude_deg = -105.1786;
+        q.utc = "2003-10-17T12:30:30-07:00";
+        q.site_elevation_m = 1830.14;
+        q.delta_t_s = 67.0;
+        airmass_sun_position pos;
+        memset(&pos, 0, sizeof pos);
+        pos.struct_size = sizeof pos;
+        const int32_t s = airmass_solar_position(&q, &pos, msg, sizeof msg);
+        snprintf(detail, sizeof detail, "status %d %s, elevation %.7f, azimuth %.7f", (int)s, msg, pos.elevation_deg,
+                 pos.azimuth_deg);
+        check(s == AIRMASS_OK && fabs(pos.elevation_deg - 39.872046) < 2e-6 && fabs(pos.azimuth_deg - 194.340241) < 1e-5 &&
+                  fabs(pos.zenith_deg + pos.elevation_deg - 90.0) < 1e-9 && pos.delta_t_s == 67.0 &&
+                  fabs(pos.julian_day - 2452930.312847) < 1e-6 && pos.blender_rotation_deg == pos.azimuth_deg,
+              "solar position: the SPA report's example", detail);
+        q.latitude_deg = 91.0;
+        const int32_t s2 = airmass_solar_position(&q, &pos, msg, sizeof msg);
+        check(s2 == AIRMASS_INVALID_ARGUMENT && contains(msg, "latitude_deg") && contains(msg, "[-90, 90]"),
+              "solar position: a latitude of 91 is refused, naming the field and range", msg);
+        q.latitude_deg = 0.0;
+        q.utc = "2026-02-30T00:00Z";
+        const int32_t s3 = airmass_solar_position(&q, &pos, msg, sizeof msg);
+        check(s3 == AIRMASS_INVALID_ARGUMENT && contains(msg, "utc"), "solar position: a bad date is refused", msg);
+        q.utc = NULL;
+        const int32_t s4 = airmass_solar_position(&q, &pos, msg, sizeof msg);
+        check(s4 == AIRMASS_INVALID_ARGUMENT && contains(msg, "utc"), "solar position: a NULL utc is refused", msg);
+        pos.struct_size = 8;
+        q.utc = "2026-06-21T12:00:00Z";
+        const int32_t s5 = airmass_solar_position(&q, &pos, msg, sizeof msg);
+        check(s5 == AIRMASS_INVALID_ARGUMENT && contains(msg, "struct_size"), "solar position: a stale struct is refused",
+              msg);
+    }
     free(rgba);
 
     printf("%d passed, %d failed\n", passed, failed);

@@ -2,6 +2,9 @@
 
   * `airmass --version` prints "airmass X.Y.Z", X.Y.Z being project(... VERSION) in the top
     CMakeLists.txt, answered before any command is set up;
+  * the table cache of `airmass sky`: a second run reads the tables the first one kept and
+    writes the same pixels; a corrupted entry is replaced, never trusted; --no-cache neither
+    reads nor writes; an unwritable cache folder is no error;
   * `airmass compare` takes its Blender children with it: a stand-in "blender" that records its
     pid and sleeps is started by `airmass compare`, the compare process is killed (SIGTERM: it
     cancels and kills the child's process group; SIGKILL: the kernel kills the child through
@@ -47,9 +50,9 @@ def test_version_is_the_project_version(airmass_bin):
     assert r.returncode == 0, r
     assert r.stdout == "airmass %s\n" % project_version(), r.stdout
     assert r.stderr == ""
-    # CPU time, not wall time (the machine may be loaded): the dynamic loader's work on the ~260
-    # shared libraries the binary links (≈ 0.3-0.5 s here) and nothing more; a --version that set
-    # up a command or loaded a scene would not stay far below this.
+    # CPU time, not wall time (the machine may be loaded): the dynamic loader's work on the ~20
+    # shared libraries the binary links (OpenVDB's relocations most of it) and nothing more; a
+    # --version that set up a command or loaded a scene would not stay far below this.
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     assert cpu < 2.0, cpu
 
@@ -57,6 +60,51 @@ def test_version_is_the_project_version(airmass_bin):
 def test_version_is_in_help(airmass_bin):
     r = subprocess.run([airmass_bin, "--help"], capture_output=True, text=True, timeout=30)
     assert r.returncode == 0 and "--version" in r.stdout, r
+
+
+# ---- the table cache ---------------------------------------------------------------------------------
+
+def _sky(airmass_bin, cache, out, *extra):
+    env = dict(os.environ, AIRMASS_CACHE_DIR=str(cache))
+    r = subprocess.run([airmass_bin, "sky", "--preset", "earth", "--basis", "rgb", "--width", "64",
+                        "--ms-table", "6,16,12,4", "-o", str(out), *extra],
+                       capture_output=True, text=True, timeout=300, env=env)
+    assert r.returncode == 0, r
+    return r.stderr
+
+
+def test_table_cache_hit_corrupt_and_bypass(airmass_bin, tmp_path):
+    cache = tmp_path / "cache"
+    first = _sky(airmass_bin, cache, tmp_path / "a.exr")
+    assert "tables computed and cached" in first, first
+    entries = sorted(cache.glob("ms-*.amt"))
+    assert len(entries) == 1 and not [p for p in cache.iterdir() if p.suffix != ".amt"], list(cache.iterdir())
+    second = _sky(airmass_bin, cache, tmp_path / "b.exr")
+    assert "tables from the cache" in second, second
+    assert (tmp_path / "a.exr").read_bytes() == (tmp_path / "b.exr").read_bytes()
+    # One flipped byte in the middle: refused, replaced, and the image is still the same.
+    raw = bytearray(entries[0].read_bytes())
+    raw[len(raw) // 2] ^= 0x01
+    entries[0].write_bytes(bytes(raw))
+    third = _sky(airmass_bin, cache, tmp_path / "c.exr")
+    assert "bad cache entry replaced" in third, third
+    assert (tmp_path / "c.exr").read_bytes() == (tmp_path / "a.exr").read_bytes()
+    assert "tables from the cache" in _sky(airmass_bin, cache, tmp_path / "d.exr")
+    # Other table settings are another entry.
+    _sky(airmass_bin, cache, tmp_path / "e.exr", "--ms-orders", "3")
+    assert len(list(cache.glob("ms-*.amt"))) == 2
+    # --no-cache: nothing read, nothing written.
+    other = tmp_path / "other"
+    assert "tables computed (--no-cache)" in _sky(airmass_bin, other, tmp_path / "f.exr", "--no-cache")
+    assert not other.exists()
+
+
+def test_table_cache_unwritable_folder_is_no_error(airmass_bin, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    err = _sky(airmass_bin, blocker / "cache", tmp_path / "a.exr")
+    assert "not cached" in err, err
+    assert (tmp_path / "a.exr").stat().st_size > 0
 
 
 # ---- compare ends its Blender child ------------------------------------------------------------------

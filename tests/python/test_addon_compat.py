@@ -399,7 +399,7 @@ def test_library_names():
     spec = importlib.util.spec_from_file_location("airmass_native_names", ADDON / "native.py")
     native = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(native)
-    assert native.ABI_VERSION == 4
+    assert native.ABI_VERSION == 5
     assert native.library_name("linux") == "libairmass_c.so"
     assert native.library_name("win32") == "airmass_c.dll"
     assert native.library_name("darwin") == "libairmass_c.dylib"

@@ -32,6 +32,7 @@
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/sky_grid.hpp"
 
 namespace airmass {
 
@@ -41,6 +42,32 @@ struct MultipleScatteringOptions {
     bool enabled = true;
     MsSettings tables{};
     int view_samples = 32;  // quadrature intervals per view ray (multiple_scattering_radiance)
+};
+
+// Multiple scattering as one observer sees it: the tables' radiance integrated along the rays
+// of a coarse sun-aligned grid of view directions (sky_grid.hpp; `intervals` azimuth steps
+// over 0–180° and intervals/2 + 1 zenith rows above and below the horizon) and interpolated
+// bilinearly for any direction. Multiply-scattered light varies slowly with direction, so a
+// few hundred rays stand for a whole sky image's tens of thousands. Built by
+// Evaluator::ms_view for one altitude and sun; its error and cost against per-ray
+// integration are measured by `bench/sky_vs_blender.sh` (docs/sky.md).
+//
+// What is interpolated is normalised by the ray's own view transmittance T(λ), which the
+// single-scattering pass has for every ray: the in-scattered part over (1 − T) and the
+// ground's part over T. Near the horizon the length of a ray changes by orders of magnitude
+// within a fraction of a degree (a ground ray from 2 m meets the ground 100 m away 1° below
+// the horizon, and 200 km away at it); the in-scatter follows its (1 − T), while the ratio
+// — a mean source along the ray — stays smooth.
+struct MsView {
+    double altitude_m = 0.0;
+    Vec3<double> sun{0.0, 0.0, 1.0};
+    SkyGrid grid;  // 2 × wavelength count channels: in-scatter / (1 − T), ground part / T
+
+    // The multiple-scattering radiance of a unit direction whose view transmittance is
+    // `transmittance` (0 where it misses the atmosphere): `out` the total, `inscatter` (if not
+    // empty) the part scattered along the ray, without the ground's.
+    void lookup(Vec3<double> direction, std::span<const double> transmittance, std::span<double> out,
+                std::span<double> inscatter = {}) const;
 };
 
 class Evaluator {
@@ -62,9 +89,21 @@ public:
     // multiple); out.radiance_rayleigh / radiance_mie the single-scattering in-scatter.
     // `multiple`, if given, receives the multiple-scattering parts (zero without tables).
     void radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOut* multiple = nullptr) const;
-    // Many view directions from one observer (ray-major spans, n × wavelength_count()).
+    // Many view directions from one observer (ray-major spans, n × wavelength_count()). With
+    // `view` (from ms_view for the same altitude and sun; std::invalid_argument otherwise) the
+    // multiple scattering is interpolated from it instead of integrated along every ray.
+    // `multiple_inscatter`, if not empty (n × wavelength_count()), receives the part of the
+    // multiple scattering added to out.radiance that was scattered along the ray (the rest is
+    // the ground's), so that out.radiance − out.radiance_rayleigh − out.radiance_mie −
+    // multiple_inscatter is the light from the ground (and the disc, when the atmosphere adds it).
     void radiance(double altitude_m, Vec3<double> sun_direction, std::span<const Vec3<double>> view_directions,
-                  RadianceOut out) const;
+                  RadianceOut out, const MsView* view = nullptr, std::span<double> multiple_inscatter = {}) const;
+
+    // The multiple-scattering view of an observer (MsView), `intervals` ≥ 2, its rays
+    // integrated on `threads` threads (0: all); cancellable through hooks.cancel (Cancelled).
+    // All zero without tables.
+    MsView ms_view(double altitude_m, Vec3<double> sun_direction, int intervals, int threads = 0,
+                   const RenderHooks& hooks = {}) const;
 
     // Aerial perspective (single_scattering.hpp aerial_perspective): T and S from `from_m` to
     // `to_m` (planet-centred metres), or along that ray out of the atmosphere.

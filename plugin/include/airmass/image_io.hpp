@@ -1,7 +1,7 @@
 // Writing linear float images as OpenEXR, atomically.
 //
 // An image is written to a temporary file beside the destination and renamed over it only
-// once OpenImageIO has closed it without error (airmass/atomic_file.hpp, the one helper of
+// once OpenEXR has closed it without error (airmass/atomic_file.hpp, the one helper of
 // every writer). A reader therefore sees either the previous file or the complete new one,
 // never a partial file; on any failure the temporary is removed and nothing else is touched.
 #pragma once

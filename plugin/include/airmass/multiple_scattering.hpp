@@ -60,6 +60,8 @@
 
 namespace airmass {
 
+class TableStore;  // table_store.hpp
+
 enum class MsMode {
     orders,         // orders of scattering on a 4-D table
     isotropic_lut,  // Hillaire 2020: 2-D isotropic table, infinite orders by 1/(1 − f_ms)
@@ -126,6 +128,10 @@ struct MsSettings {
     // Called from the calling thread between stages: (fraction done estimate, current order).
     std::function<void(double fraction, int order)> progress;
     const CancelFlag* cancel = nullptr;  // polled per ray; Cancelled is thrown
+    // Where the host keeps tables between calls (table_store.hpp: the CLI's disk cache, the
+    // add-on's memory), or null. compute_tables (evaluator.hpp) asks it before computing and
+    // gives it what it computed; precompute_multiple_scattering itself never looks at it.
+    TableStore* store = nullptr;
 };
 
 // The grid: node positions and the mappings between physical parameters and continuous

@@ -77,6 +77,8 @@ enum class SkyRegion {
     upper,  // only rows whose centre is at or above the horizon are computed; the others are 0
 };
 
+inline constexpr int kSkyDefaultMultipleGrid = 32;
+
 struct SkySettings {
     int width = 2048;   // pixels over 360°
     int height = 1024;  // pixels over 180° (width/2 keeps pixels square)
@@ -103,9 +105,14 @@ struct SkySettings {
     bool multiple_scattering = true;
     MsSettings multiple{};
     int multiple_samples = 32;  // quadrature intervals per view ray (as RenderSettings)
+    // The multiple-scattering view (evaluator.hpp MsView): the tables are integrated along the
+    // rays of a coarse sun-aligned grid of this many azimuth intervals and interpolated for
+    // every grid node or pixel (the light is smooth in direction). 0: integrated along every
+    // evaluated ray. Error and cost: `airmass report sky`, docs/sky.md.
+    int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
-inline constexpr int kSkyDefaultGrid = 256;
+inline constexpr int kSkyDefaultGrid = 128;
 inline constexpr int kSkyMaxGrid = 16384;
 
 // Limits checked by validate(SkySettings).

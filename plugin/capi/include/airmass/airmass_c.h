@@ -42,14 +42,15 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 4  /* 2: airmass_sky_options.multiple_scattering
+#define AIRMASS_C_ABI_VERSION 5  /* 2: airmass_sky_options.multiple_scattering
                                     3: no files: the sky and the volume grids are returned as
                                        float buffers that the host writes (Blender's image API,
                                        its own OpenVDB module); airmass_write_sky_exr and
                                        airmass_write_vdb are gone
                                     4: the *_init functions return a status and read struct_size,
                                        which the caller sets (they wrote it before): a size they
-                                       do not know is refused and the struct left untouched */
+                                       do not know is refused and the struct left untouched
+                                    5: airmass_solar_position (added; nothing else changed) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -194,6 +195,43 @@ typedef struct airmass_sun_light {
 
 AIRMASS_C_API int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char* chapman,
                                                     airmass_sun_light* out, char* message, size_t message_size);
+
+/* ---- Solar position (NREL SPA; docs/sun.md) ---------------------------------------------------
+ *
+ * The sun's topocentric position for a place on Earth and a moment in UTC, as `airmass sun`
+ * prints it: NREL's Solar Position Algorithm (Reda & Andreas 2004/2008, ±0.0003°), no
+ * atmospheric refraction (the sky model bends no rays, so the geometric sun is the one that
+ * matches the rendered sky). Cheap (microseconds): no job, no progress. */
+
+typedef struct airmass_solar_query {
+    uint32_t struct_size;
+    double latitude_deg;      /* geodetic, north positive, [-90, 90]                           */
+    double longitude_deg;     /* east positive, [-180, 180]                                    */
+    const char* utc;          /* ISO 8601 with a zone: "2026-06-21T04:00:00Z", "...+02:00"     */
+    double site_elevation_m;  /* observer height above sea level (parallax only); 0 by default */
+    double delta_t_s;         /* ΔT = TT − UT1, seconds; NaN (default): Espenak & Meeus         */
+    double delta_ut1_s;       /* UT1 − UTC, seconds, |value| ≤ 1; 0 by default                 */
+} airmass_solar_query;
+
+/* latitude/longitude 0, utc NULL (must be set), site elevation 0, ΔT NaN, ΔUT1 0. */
+AIRMASS_C_API int32_t airmass_solar_query_init(airmass_solar_query* query); /* struct_size set first */
+
+typedef struct airmass_sun_position {
+    uint32_t struct_size;
+    double elevation_deg;          /* topocentric, above the astronomical horizon, [-90, 90]  */
+    double azimuth_deg;            /* from north, clockwise (east = 90°), [0, 360)            */
+    double zenith_deg;             /* 90 − elevation                                           */
+    double blender_elevation_deg;  /* Sky Texture angles for a scene whose +Y is north and   */
+    double blender_rotation_deg;   /*   +X east (= elevation and azimuth; docs/sun.md)        */
+    double julian_day;             /* UT1                                                       */
+    double delta_t_s;              /* the ΔT used                                               */
+} airmass_sun_position;
+
+/* Fills `out` (its struct_size set by the caller). Errors (AIRMASS_INVALID_ARGUMENT) name the
+ * field, the value and the allowed range, e.g. "latitude_deg = 91: must be in [-90, 90]" or
+ * "utc '2026-02-30T00:00Z': day 30 does not exist in that month". */
+AIRMASS_C_API int32_t airmass_solar_position(const airmass_solar_query* query, airmass_sun_position* out,
+                                             char* message, size_t message_size);
 
 /* ---- Volumes (vdb_export's OpenVDB-free volume layer) ---------------------------------------------
  *

@@ -1,0 +1,253 @@
+// Multiple-scattering tables as bytes (table_store.hpp): the key, the record format and its
+// checks. Record layout (this machine's byte order; a record from another order fails the
+// magic check):
+//
+//   magic "AMSTBL\0\0" | u32 format | u32 byte-order mark 0x01020304
+//   u64 key length | key bytes
+//   u64 payload length | u64 FNV-1a of the payload | payload
+//
+// The payload is the fields of MultipleScattering in declaration order, each vector as a u64
+// count and its elements.
+#include "airmass/table_store.hpp"
+
+#include <bit>
+#include <cstring>
+#include <type_traits>
+
+#include "airmass/version.hpp"
+
+namespace airmass {
+
+namespace detail {
+// A digest of the library's sources, generated at build time (plugin/CMakeLists.txt).
+extern const char* const kSourceDigest;
+}  // namespace detail
+
+namespace {
+
+constexpr char kMagic[8] = {'A', 'M', 'S', 'T', 'B', 'L', 0, 0};
+constexpr std::uint32_t kFormat = 1;
+constexpr std::uint32_t kByteOrderMark = 0x01020304u;
+
+class Writer {
+public:
+    template <class T>
+    void put(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        const auto* p = reinterpret_cast<const std::byte*>(&v);
+        bytes_.insert(bytes_.end(), p, p + sizeof(T));
+    }
+    void put_bytes(const void* data, std::size_t n) {
+        const auto* p = static_cast<const std::byte*>(data);
+        bytes_.insert(bytes_.end(), p, p + n);
+    }
+    void put_string(std::string_view s) {
+        put<std::uint64_t>(s.size());
+        put_bytes(s.data(), s.size());
+    }
+    template <class T>
+    void put_vector(const std::vector<T>& v) {
+        put<std::uint64_t>(v.size());
+        put_bytes(v.data(), v.size() * sizeof(T));
+    }
+    std::vector<std::byte>& bytes() { return bytes_; }
+
+private:
+    std::vector<std::byte> bytes_;
+};
+
+class Reader {
+public:
+    explicit Reader(std::span<const std::byte> b) : bytes_(b) {}
+    template <class T>
+    bool get(T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        if (bytes_.size() - pos_ < sizeof(T)) return false;
+        std::memcpy(&v, bytes_.data() + pos_, sizeof(T));
+        pos_ += sizeof(T);
+        return true;
+    }
+    bool get_span(std::size_t n, std::span<const std::byte>& out) {
+        if (bytes_.size() - pos_ < n) return false;
+        out = bytes_.subspan(pos_, n);
+        pos_ += n;
+        return true;
+    }
+    template <class T>
+    bool get_vector(std::vector<T>& v) {
+        std::uint64_t n = 0;
+        if (!get(n) || n > (bytes_.size() - pos_) / sizeof(T)) return false;
+        v.resize(std::size_t(n));
+        std::memcpy(v.data(), bytes_.data() + pos_, std::size_t(n) * sizeof(T));
+        pos_ += std::size_t(n) * sizeof(T);
+        return true;
+    }
+    bool at_end() const { return pos_ == bytes_.size(); }
+
+private:
+    std::span<const std::byte> bytes_;
+    std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+std::uint64_t fnv1a64(std::span<const std::byte> bytes) {
+    // FNV-1a over 64-bit words (then the tail byte by byte): a checksum of a 40 MB table in
+    // ≈ 5 ms rather than 40; it detects corruption, it is not a cryptographic hash.
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    std::size_t i = 0;
+    for (; i + 8 <= bytes.size(); i += 8) {
+        std::uint64_t word;
+        std::memcpy(&word, bytes.data() + i, 8);
+        h ^= word;
+        h *= 0x100000001b3ull;
+        h ^= h >> 29;
+    }
+    for (; i < bytes.size(); ++i) {
+        h ^= std::uint64_t(bytes[i]);
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+std::uint64_t fnv1a64(std::string_view text) {
+    return fnv1a64(std::as_bytes(std::span<const char>(text.data(), text.size())));
+}
+
+std::string ms_table_key(const Atmosphere& atm, const MsSettings& s) {
+    Writer w;
+    w.put_string("airmass multiple-scattering tables");
+    w.put_string(version_string());
+    w.put_string(detail::kSourceDigest);
+    // The atmosphere, as precompute_multiple_scattering reads it (not E_sun: the tables are
+    // per unit irradiance; not the view-ray knobs).
+    w.put(atm.planet_radius_m);
+    w.put(atm.top_altitude_m);
+    w.put(atm.ground_albedo);
+    w.put(static_cast<std::int32_t>(atm.settings.chapman));
+    w.put(static_cast<std::uint8_t>(atm.settings.ground));
+    w.put_vector(atm.wavelengths_nm);
+    w.put<std::uint64_t>(atm.constituents.size());
+    for (const AtmosphereConstituent& c : atm.constituents) {
+        const CompiledProfile& p = c.profile;
+        w.put(static_cast<std::int32_t>(p.kind));
+        w.put(p.scale_height_m);
+        w.put(p.reference_altitude_m);
+        w.put(static_cast<std::uint8_t>(p.truncate_at_top));
+        w.put_vector(p.altitude_m);
+        w.put_vector(p.density);
+        w.put(static_cast<std::int32_t>(c.phase.kind));
+        w.put(c.phase.g);
+        w.put(static_cast<std::uint8_t>(c.rayleigh_like));
+        w.put(static_cast<std::uint8_t>(c.scatters));
+        w.put_vector(c.scattering_per_m);
+        w.put_vector(c.absorption_per_m);
+    }
+    // The table settings that change values.
+    w.put(static_cast<std::int32_t>(s.mode));
+    w.put(static_cast<std::int32_t>(s.parameterisation));
+    w.put(s.table);
+    w.put(s.max_order);
+    w.put(s.tolerance);
+    w.put(s.max_auto_order);
+    w.put(static_cast<std::uint8_t>(s.geometric_tail));
+    w.put(s.ray_samples);
+    w.put(s.transmittance_altitude);
+    w.put(s.transmittance_sun);
+    w.put(s.phase_subsamples);
+    const std::vector<std::byte>& b = w.bytes();
+    return std::string(reinterpret_cast<const char*>(b.data()), b.size());
+}
+
+std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::string_view key) {
+    Writer p;
+    p.put(static_cast<std::int32_t>(ms.mode));
+    p.put(static_cast<std::int32_t>(ms.grid.parameterisation));
+    p.put(ms.grid.size);
+    p.put(ms.grid.planet_radius_m);
+    p.put(ms.grid.top_radius_m);
+    p.put(ms.grid.mu_s_min);
+    p.put<std::uint64_t>(ms.wavelength_count);
+    p.put(ms.ground_albedo);
+    p.put_vector(ms.slot);
+    p.put<std::uint64_t>(ms.slot_count);
+    p.put_vector(ms.phase_radiance);
+    p.put_vector(ms.ground_irradiance);
+    p.put_vector(ms.radiance);
+    p.put<std::uint64_t>(ms.orders.size());
+    for (const MsOrderInfo& o : ms.orders) {
+        p.put(o.order);
+        p.put_vector(o.relative);
+        p.put(o.max_relative);
+    }
+    p.put(ms.highest_order);
+    p.put(static_cast<std::uint8_t>(ms.tail_added));
+    p.put_vector(ms.tail_ratio);
+    p.put(ms.precompute_seconds);
+
+    Writer r;
+    r.put_bytes(kMagic, sizeof kMagic);
+    r.put(kFormat);
+    r.put(kByteOrderMark);
+    r.put_string(key);
+    const std::vector<std::byte>& payload = p.bytes();
+    r.put<std::uint64_t>(payload.size());
+    r.put(fnv1a64(payload));
+    r.put_bytes(payload.data(), payload.size());
+    return std::move(r.bytes());
+}
+
+std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key) {
+    Reader r(bytes);
+    std::span<const std::byte> magic, stored_key, payload;
+    std::uint32_t format = 0, mark = 0;
+    std::uint64_t key_size = 0, payload_size = 0, checksum = 0;
+    if (!r.get_span(sizeof kMagic, magic) || std::memcmp(magic.data(), kMagic, sizeof kMagic) != 0) return {};
+    if (!r.get(format) || format != kFormat || !r.get(mark) || mark != kByteOrderMark) return {};
+    if (!r.get(key_size) || key_size != key.size() || !r.get_span(std::size_t(key_size), stored_key) ||
+        std::memcmp(stored_key.data(), key.data(), key.size()) != 0)
+        return {};
+    if (!r.get(payload_size) || !r.get(checksum) || !r.get_span(std::size_t(payload_size), payload) || !r.at_end() ||
+        fnv1a64(payload) != checksum)
+        return {};
+
+    Reader p(payload);
+    MultipleScattering ms;
+    std::int32_t mode = 0, parameterisation = 0;
+    std::uint64_t nw = 0, slot_count = 0, order_count = 0;
+    std::uint8_t tail = 0;
+    bool ok = p.get(mode) && p.get(parameterisation) && p.get(ms.grid.size) && p.get(ms.grid.planet_radius_m) &&
+              p.get(ms.grid.top_radius_m) && p.get(ms.grid.mu_s_min) && p.get(nw) && p.get(ms.ground_albedo) &&
+              p.get_vector(ms.slot) && p.get(slot_count) && p.get_vector(ms.phase_radiance) &&
+              p.get_vector(ms.ground_irradiance) && p.get_vector(ms.radiance) && p.get(order_count) &&
+              order_count <= 100000;
+    for (std::uint64_t k = 0; ok && k < order_count; ++k) {
+        MsOrderInfo o;
+        ok = p.get(o.order) && p.get_vector(o.relative) && p.get(o.max_relative);
+        ms.orders.push_back(std::move(o));
+    }
+    ok = ok && p.get(ms.highest_order) && p.get(tail) && p.get_vector(ms.tail_ratio) &&
+         p.get(ms.precompute_seconds) && p.at_end();
+    if (!ok || mode < 0 || mode > int(MsMode::isotropic_lut) || parameterisation < 0 ||
+        parameterisation > int(MsParameterisation::seed004))
+        return {};
+    ms.mode = static_cast<MsMode>(mode);
+    ms.grid.parameterisation = static_cast<MsParameterisation>(parameterisation);
+    ms.wavelength_count = std::size_t(nw);
+    ms.slot_count = std::size_t(slot_count);
+    ms.tail_added = tail != 0;
+    // The table sizes must agree with the grid and counts they claim (a record that passed
+    // its checksum but was written by a broken writer is still not trusted).
+    const std::size_t nodes = ms.mode == MsMode::orders
+                                  ? ms.grid.node_count()
+                                  : std::size_t(ms.grid.size.altitude) * ms.grid.size.sun_zenith;
+    const std::size_t g_size = ms.slot_count == 0 ? 1 : nodes * ms.slot_count * ms.wavelength_count;
+    if (ms.phase_radiance.size() != g_size ||
+        ms.ground_irradiance.size() != std::size_t(ms.grid.size.sun_zenith) * ms.wavelength_count)
+        return {};
+    for (int s : ms.slot)
+        if (s < -1 || s >= int(ms.slot_count)) return {};
+    return ms;
+}
+
+}  // namespace airmass
