@@ -66,21 +66,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
-
-namespace airmass::cli::render_detail {
-// Defined in cmd_render.cpp (this declaration must stay identical to the definition there).
-struct CameraOverrides {
-    std::string position_m, direction, up;
-    std::optional<double> fov_deg, max_distance_km;
-};
-void add_camera_options(CLI::App* cmd, CameraOverrides& c);
-Scene load_render_scene(const std::string& scene_path, const std::string& preset,
-                        const std::optional<double>& sun_elevation_deg, const std::optional<double>& sun_rotation_deg,
-                        const char* command, const CameraOverrides& camera);
-std::array<double, 3> exporter_rgb_wavelengths(const Scene& scene, const std::string& which);
-CameraModel resized_camera(const Scene& scene, Projection projection, const std::optional<int>& width,
-                           const std::optional<int>& height, SensorFit fit);
-}  // namespace airmass::cli::render_detail
+#include "render_options.hpp"
 
 namespace airmass::cli {
 

@@ -33,17 +33,7 @@
 #include "commands.hpp"
 #include "csv.hpp"
 #include "ms_options.hpp"
-
-namespace airmass::cli::render_detail {
-
-// Camera options shared by `render` and `compare` (metres, scene frame; fov along the fitted
-// side). cmd_compare.cpp declares the same struct; keep them identical.
-struct CameraOverrides {
-    std::string position_m, direction, up;
-    std::optional<double> fov_deg, max_distance_km;
-};
-
-}  // namespace airmass::cli::render_detail
+#include "render_options.hpp"
 
 namespace airmass::cli {
 
@@ -55,6 +45,7 @@ struct RenderOptions {
     int samples = RenderSettings{}.view_samples;
     std::string chapman = std::string(chapman_method_name(RenderSettings{}.chapman));
     bool renderer_matched = false;
+    std::string matched_renderer = "blender";
     std::string rgb_model = "spectral";
     std::string pixel_filter = "centre";
     std::string rgb_wavelengths = "auto";
@@ -215,6 +206,10 @@ void add_render_command(CLI::App& app) {
     cmd->add_option("--chapman", o->chapman, "Chapman method (airmass chapman --list-methods)")->capture_default_str();
     cmd->add_flag("--renderer-matched", o->renderer_matched,
                   "Henyey-Greenstein phase functions with the same g (Rayleigh: g = 0), as Blender 3.4 renders");
+    cmd->add_option("--matched-renderer", o->matched_renderer,
+                    "with --renderer-matched: blender (HG only) or povray (Rayleigh kept, the rest HG)")
+        ->check(CLI::IsMember({"blender", "povray"}))
+        ->capture_default_str();
     cmd->add_option("--rgb-model", o->rgb_model,
                     "spectral (the scene's basis -> Rec.709) or renderer (3 wavelengths as R, G, B with the "
                     "sun lamp's RGB irradiance, what Blender renders from the volume export)")
@@ -254,6 +249,7 @@ void add_render_command(CLI::App& app) {
         if (!method) throw CliError("render: unknown --chapman '" + o->chapman + "'");
         settings.chapman = *method;
         settings.renderer_matched = o->renderer_matched;
+        settings.matched_renderer = o->matched_renderer == "povray" ? MatchedRenderer::povray : MatchedRenderer::blender;
         settings.color = o->rgb_model == "renderer" ? ColorModel::renderer_rgb : ColorModel::spectral;
         settings.pixel_filter = o->pixel_filter == "box" ? PixelFilter::box : PixelFilter::centre;
         if (settings.color == ColorModel::renderer_rgb)

@@ -1,0 +1,31 @@
+// Helpers of `airmass render` (defined in cmd_render.cpp) that other commands reuse so
+// that every command reads a scene's camera the same way: the camera overrides, the
+// scene a command line names (default camera, sun overrides) and the resized camera.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "airmass/camera.hpp"
+#include "airmass/scene.hpp"
+
+namespace airmass::cli::render_detail {
+
+// Camera options shared by `render`, `compare` and `pov` (metres, scene frame; fov along
+// the fitted side).
+struct CameraOverrides {
+    std::string position_m, direction, up;
+    std::optional<double> fov_deg, max_distance_km;
+};
+void add_camera_options(CLI::App* cmd, CameraOverrides& c);
+Scene load_render_scene(const std::string& scene_path, const std::string& preset,
+                        const std::optional<double>& sun_elevation_deg, const std::optional<double>& sun_rotation_deg,
+                        const char* command, const CameraOverrides& camera);
+std::array<double, 3> exporter_rgb_wavelengths(const Scene& scene, const std::string& which);
+CameraModel resized_camera(const Scene& scene, Projection projection, const std::optional<int>& width,
+                           const std::optional<int>& height, SensorFit fit);
+
+}  // namespace airmass::cli::render_detail
