@@ -310,32 +310,6 @@ std::string tail_of(const fs::path& log, std::size_t lines) {
     return out;
 }
 
-// The box of the scene frame (metres) holding what the camera sees up to its max distance,
-// within the atmosphere: the bounding box of the camera and of points at max distance along
-// a 17 × 17 grid of pixel directions, cut to the shell's height range.
-MediumBox view_box(const Scene& scene, const CameraModel& cam) {
-    const double D = scene.camera->max_distance_m;
-    glm::dvec3 lo = cam.pose.position_m, hi = cam.pose.position_m;
-    constexpr int n = 16;
-    for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i) {
-            const glm::dvec3 d = camera_ray_direction(cam, cam.width * double(i) / n, cam.height * double(j) / n);
-            const glm::dvec3 p = cam.pose.position_m + D * d;
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-    const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
-    // The medium spans altitudes [0, top]; below the ground nothing is seen, above the top
-    // nothing scatters. z of the ground at horizontal distance ρ from the axis: −ρ²/(R + sqrt(R² − ρ²)).
-    const double rho = std::min(std::max({std::abs(lo.x), std::abs(hi.x), std::abs(lo.y), std::abs(hi.y)}), R);
-    const double z_ground = -rho * rho / (R + std::sqrt(std::max(R * R - rho * rho, 0.0)));
-    lo.z = std::max(lo.z, z_ground - 1.0);
-    hi.z = std::min(hi.z, top);
-    // A box that is flat (camera above the top looking up, say) holds no medium.
-    if (!(hi.z > lo.z)) hi.z = lo.z + 1.0;
-    // Pad by a metre so the camera is strictly inside when it sits on a face.
-    return {lo - glm::dvec3(1.0), hi + glm::dvec3(1.0)};
-}
 
 json native_entry(const Scene& scene, const std::string& file, double seconds, const RenderSettings& s) {
     json j{{"file", file},

@@ -34,6 +34,8 @@
 #include <sstream>
 #include <string>
 
+#include <glm/geometric.hpp>
+
 #include "airmass/image_io.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/render.hpp"
@@ -82,8 +84,8 @@ std::string pov_rgb(const glm::dvec3& c) { return "rgb <" + num(c.x) + ", " + nu
 // media with the same sampling, so the cost grows with intervals². The rule: intervals of
 // kLayersPerInterval thinnest layers (the scale height of Mie on Earth) along the longest
 // path the camera can see through the atmosphere, within [kMinIntervals, kMaxIntervals].
-constexpr double kLayersPerInterval = 4.0;
-constexpr int kMinIntervals = 8, kMaxIntervals = 400, kDefaultSamples = 3;
+constexpr double kLayersPerInterval = 18.0;
+constexpr int kMinIntervals = 32, kMaxIntervals = 400, kDefaultSamples = 3;
 
 struct MediaSampling {
     int intervals = kMinIntervals, samples = kDefaultSamples;
@@ -91,7 +93,8 @@ struct MediaSampling {
     bool automatic_intervals = true, automatic_samples = true;
 };
 
-MediaSampling choose_media_sampling(const Scene& scene, double camera_altitude_m, const PovOptions& o) {
+MediaSampling choose_media_sampling(const Scene& scene, double camera_altitude_m, std::optional<double> chord_m,
+                                    const PovOptions& o) {
     MediaSampling s;
     const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m;
     const double thickness = top - R;
@@ -99,7 +102,8 @@ MediaSampling choose_media_sampling(const Scene& scene, double camera_altitude_m
     for (const auto& c : scene.constituents) layer = std::min(layer, profile_feature_m(c.profile, thickness));
     // The grazing view: from the camera to the tangent point of the ground, then out to the top.
     const double rc = R + std::clamp(camera_altitude_m, 0.0, thickness);
-    const double chord = std::sqrt(std::max(0.0, rc * rc - R * R)) + std::sqrt(std::max(0.0, top * top - R * R));
+    const double chord =
+        chord_m ? *chord_m : std::sqrt(std::max(0.0, rc * rc - R * R)) + std::sqrt(std::max(0.0, top * top - R * R));
     s.chord_km = chord / 1e3;
     s.layer_km = layer / 1e3;
     s.intervals = std::clamp(int(std::ceil(chord / (kLayersPerInterval * layer))), kMinIntervals, kMaxIntervals);
@@ -167,8 +171,14 @@ void add_pov_command(CLI::App& app) {
         VdbOptions vo;
         vo.unit = LengthUnit::km;
         vo.origin = PlanetOrigin::surface;
-        VdbOptions dv = vo;  // the df3 files: the camera's view region
-        dv.region = VdbRegion::view;
+        // The df3 files: the box of what the camera sees up to its max distance (as `airmass
+        // compare` exports for its VDB path), and the media container is that box, so POV-Ray's
+        // intervals fall where the density is.
+        const MediumBox mbox = view_box(scene, cam);
+        VdbOptions dv = vo;
+        dv.region = VdbRegion::box;
+        dv.box = {mbox.min_m.x * 1e-3, mbox.min_m.y * 1e-3, mbox.min_m.z * 1e-3,
+                  mbox.max_m.x * 1e-3, mbox.max_m.y * 1e-3, mbox.max_m.z * 1e-3};
         dv.voxel_size = o->voxel_size_km;
         if (o->path == "df3") {
             // df3 sizes are 16-bit: refuse a region the files cannot hold before any work.
@@ -181,7 +191,7 @@ void add_pov_command(CLI::App& app) {
             for (int a = 0; a < 3; ++a) {
                 const std::int64_t n = l.index_bounds.dim(a) + 2;  // + the zero border
                 if (n > 65535)
-                    throw CliError("pov: --voxel-size " + num(l.voxel_size) + " km: the camera's view region is " +
+                    throw CliError("pov: --voxel-size " + num(l.voxel_size) + " km: the camera's box is " +
                                    std::to_string(n) + " voxels along " + "xyz"[a] +
                                    "; a df3 file holds at most 65535 per axis: use --voxel-size >= " +
                                    num(l.voxel_size * double(n) / 65535.0 * 1.001) + " km");
@@ -193,7 +203,9 @@ void add_pov_command(CLI::App& app) {
         local.observer.altitude_m = frame.altitude_m;
         const SunLight sun = sun_light_at_observer(local);
         const bool sky_path = o->path == "sky";
-        const MediaSampling sampling = choose_media_sampling(scene, frame.altitude_m, *o);
+        const double box_diagonal_m = glm::length(mbox.max_m - mbox.min_m);
+        const MediaSampling sampling =
+            choose_media_sampling(scene, frame.altitude_m, o->path == "df3" ? std::optional(box_diagonal_m) : std::nullopt, *o);
 
         CancelFlag cancel;
         InterruptGuard guard(cancel);
@@ -292,8 +304,9 @@ void add_pov_command(CLI::App& app) {
             p << "// Media sampling: method 3 (adaptive), intervals " << sampling.intervals << ", samples "
               << sampling.samples << ".\n";
             if (sampling.automatic_intervals)
-                p << "// Chosen from the scene's scale: the longest path the camera sees through the atmosphere (grazing the\n"
-                  << "// ground) is " << num(sampling.chord_km) << " km and the thinnest layer (scale height / tent flank / knot\n"
+                p << "// Chosen from the scene's scale: the longest path through the media container ("
+                  << (o->path == "df3" ? "the box's diagonal" : "the grazing view through the atmosphere") << ")\n"
+                  << "// is " << num(sampling.chord_km) << " km and the thinnest layer (scale height / tent flank / knot\n"
                   << "// spacing) " << num(sampling.layer_km) << " km; an interval spans " << num(kLayersPerInterval)
                   << " layers along that path (within [" << kMinIntervals << ", " << kMaxIntervals
                   << "]). Each sample traces a shadow ray\n// through the media with the same sampling: the cost grows "
@@ -327,7 +340,10 @@ void add_pov_command(CLI::App& app) {
                 for (const auto& c : constituents)
                     p << "#declare Airmass_" << c << "_Df3Density = density { density_file df3 Airmass_" << c
                       << "_Df3File interpolate 1 transform { Airmass_Df3_Transform } }\n";
-                p << "sphere { Airmass_PlanetCenter, Airmass_AtmosphereTop\n  hollow pigment { rgbt 1 }\n  interior {";
+                p << "// airmass:medium_box_km = " << num(dv.box[0]) << "," << num(dv.box[1]) << "," << num(dv.box[2]) << ","
+                  << num(dv.box[3]) << "," << num(dv.box[4]) << "," << num(dv.box[5])
+                  << " (scene frame; `airmass render --box` of the same medium)\n"
+                  << "box { <0, 0, 0>, <1, 1, 1> transform { Airmass_Df3_Transform }\n  hollow pigment { rgbt 1 }\n  interior {";
                 for (const auto& c : constituents)
                     p << "\n    Airmass_" << c << "_MediaOf(Airmass_" << c << "_Df3Max, Airmass_" << c << "_Df3Density)";
                 p << "\n  }\n}\n";

@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include "airmass/camera.hpp"
+#include "airmass/render.hpp"
 #include "airmass/scene.hpp"
 
 namespace airmass::cli::render_detail {
@@ -27,5 +28,9 @@ Scene load_render_scene(const std::string& scene_path, const std::string& preset
 std::array<double, 3> exporter_rgb_wavelengths(const Scene& scene, const std::string& which);
 CameraModel resized_camera(const Scene& scene, Projection projection, const std::optional<int>& width,
                            const std::optional<int>& height, SensorFit fit);
+
+// The box of the scene frame (metres) holding what the camera sees up to its max distance,
+// within the atmosphere (the region `compare` exports for the VDB path and `pov` for df3).
+MediumBox view_box(const Scene& scene, const CameraModel& cam);
 
 }  // namespace airmass::cli::render_detail

@@ -204,11 +204,11 @@ std::string pov_include(const Scene& scene, const VdbOptions& options) {
             o << " extinction " << n << "_ScatteringExtinction }\n";
             if (absorbs) o << "      absorption " << n << "_Absorption * DensityMax\n";
             o << "    #else\n"
-              << "      scattering { Airmass_PassType, rgb 0 eccentricity Airmass_PassG }\n"
+              << "      Airmass_PassScattering()\n"
               << "      absorption (" << n << "_Absorption + " << n << "_Scattering) * DensityMax\n"
               << "    #end\n";
         } else {
-            o << "    #if (Airmass_Pass != 0) scattering { Airmass_PassType, rgb 0 eccentricity Airmass_PassG } #end\n";
+            o << "    #if (Airmass_Pass != 0) Airmass_PassScattering() #end\n";
             if (absorbs) o << "    absorption " << n << "_Absorption * DensityMax\n";
         }
         o << "    density { Density }\n"
@@ -220,7 +220,11 @@ std::string pov_include(const Scene& scene, const VdbOptions& options) {
     }
     o << "// Split passes: the phase every media takes in pass k (scatterer k's).\n"
       << "#declare Airmass_PassType = 1; #declare Airmass_PassG = 0;\n"
-      << pass_types.str() << "#declare Airmass_FirstPass = " << first_scatterer << ";\n\n";
+      << pass_types.str() << "#declare Airmass_FirstPass = " << first_scatterer << ";\n"
+      << "// A media that does not scatter in this pass still takes its phase (POV-Ray allows eccentricity on type 5 only).\n"
+      << "#macro Airmass_PassScattering()\n"
+      << "  #if (Airmass_PassType = 5) scattering { 5, rgb 0 eccentricity Airmass_PassG } #else scattering { Airmass_PassType, rgb 0 } #end\n"
+      << "#end\n\n";
     o << "// The atmosphere's container: media are evaluated inside it (hollow, invisible surface).\n"
       << "#declare Airmass_Container = sphere { Airmass_PlanetCenter, Airmass_AtmosphereTop\n"
       << "  hollow pigment { rgbt 1 }\n"
