@@ -806,8 +806,7 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
     cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();
     cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender process")->capture_default_str();
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation, degrees");
+    render_detail::add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
     cmd->add_flag("--no-blender", o->no_blender,
                   "Stop after the native renders and Blender's inputs (job.json: the plan, the constituents and "

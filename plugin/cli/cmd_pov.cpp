@@ -124,23 +124,18 @@ void add_pov_command(CLI::App& app) {
     using namespace render_detail;
     auto* cmd = app.add_subcommand("pov", "Write a POV-Ray 3.7 scene of a scene's camera, sun, sky and atmosphere");
     auto o = std::make_shared<PovOptions>();
-    auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
-    auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
-    scene_opt->excludes(preset_opt);
+    add_scene_and_size_options(cmd, o->scene_path, o->preset, o->width, o->height);
     cmd->add_option("-o,--output", o->output, "Output .pov (its inputs are written beside it)");
     cmd->add_option("--path", o->path,
                     "sky (sky texture as sky_sphere), analytic (media, function densities) or df3 (media, density files)")
         ->check(CLI::IsMember({"sky", "analytic", "df3"}))
         ->capture_default_str();
-    cmd->add_option("--width", o->width, "Image width in pixels [default: the camera's]");
-    cmd->add_option("--height", o->height, "Image height in pixels [default: keeps the camera's aspect]");
     cmd->add_option("--sky-width", o->sky_width,
                     "sky path: texture width [default: texels at most 1/2 of a camera pixel at the image centre]");
     cmd->add_option("--voxel-size", o->voxel_size_km, "df3 path: voxel edge, km [default: automatic, docs/vdb.md]");
     cmd->add_option("--media-intervals", o->media_intervals, "Media intervals [default: from the scene's scale]");
     cmd->add_option("--media-samples", o->media_samples, "Media samples (method 3) [default: 3]");
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees [-90, 90]");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
+    add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary");
     add_camera_options(cmd, o->camera);

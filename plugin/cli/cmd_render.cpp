@@ -83,6 +83,20 @@ void add_camera_options(CLI::App* cmd, CameraOverrides& c) {
     cmd->add_option("--max-distance", c.max_distance_km, "Camera max distance (VDB region), km");
 }
 
+void add_scene_and_size_options(CLI::App* cmd, std::string& scene_path, std::string& preset, std::optional<int>& width,
+                                std::optional<int>& height) {
+    auto* scene_opt = cmd->add_option("scene", scene_path, "Scene file (TOML; docs/scene.md)");
+    auto* preset_opt = cmd->add_option("--preset", preset, "Built-in scene by name");
+    scene_opt->excludes(preset_opt);
+    cmd->add_option("--width", width, "Image width in pixels [default: the camera's]");
+    cmd->add_option("--height", height, "Image height in pixels [default: keeps the camera's aspect]");
+}
+
+void add_sun_overrides(CLI::App* cmd, std::optional<double>& elevation_deg, std::optional<double>& rotation_deg) {
+    cmd->add_option("--sun-elevation", elevation_deg, "Override the sun elevation, degrees [-90, 90]");
+    cmd->add_option("--sun-rotation", rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
+}
+
 void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* command) {
     Camera& c = *scene.camera;
     auto vec = [&](const std::string& text, double* out, const char* opt) {
@@ -223,12 +237,8 @@ void add_render_command(CLI::App& app) {
     using namespace render_detail;
     auto* cmd = app.add_subcommand("render", "Render a scene's camera natively to a 32-bit float EXR (linear Rec.709)");
     auto o = std::make_shared<RenderOptions>();
-    auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
-    auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
-    scene_opt->excludes(preset_opt);
+    add_scene_and_size_options(cmd, o->scene_path, o->preset, o->width, o->height);
     cmd->add_option("-o,--output", o->output, "Output EXR path (written atomically)");
-    cmd->add_option("--width", o->width, "Image width in pixels [default: the camera's]");
-    cmd->add_option("--height", o->height, "Image height in pixels [default: keeps the camera's aspect]");
     cmd->add_option("--samples", o->samples, "Samples per scattering constituent along each view ray")
         ->capture_default_str();
     cmd->add_option("--chapman", o->chapman, "Chapman method (airmass chapman --list-methods)")->capture_default_str();
@@ -259,8 +269,7 @@ void add_render_command(CLI::App& app) {
     add_ms_options(cmd, o->ms);
     cmd->add_option("--box", o->box,
                     "Cut the medium to this box of the scene frame, km: X0,Y0,Z0,X1,Y1,Z1 (a VDB 'box' export)");
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees [-90, 90]");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
+    add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     add_camera_options(cmd, o->camera);

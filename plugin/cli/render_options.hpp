@@ -22,6 +22,12 @@ struct CameraOverrides {
     std::optional<double> fov_deg, max_distance_km;
 };
 void add_camera_options(CLI::App* cmd, CameraOverrides& c);
+// The scene (a file or --preset, one of them) and the image size (--width, --height) of a
+// command that renders the scene's camera.
+void add_scene_and_size_options(CLI::App* cmd, std::string& scene_path, std::string& preset, std::optional<int>& width,
+                                std::optional<int>& height);
+// --sun-elevation / --sun-rotation, the overrides load_render_scene applies.
+void add_sun_overrides(CLI::App* cmd, std::optional<double>& elevation_deg, std::optional<double>& rotation_deg);
 Scene load_render_scene(const std::string& scene_path, const std::string& preset,
                         const std::optional<double>& sun_elevation_deg, const std::optional<double>& sun_rotation_deg,
                         const char* command, const CameraOverrides& camera);
