@@ -548,7 +548,7 @@ TEST(VdbAnalytic, PovIncludeDeclaresDensityFunctionsAndMedia) {
     const Scene scene = load_preset("earth");
     const std::string inc = pov_include(scene, VdbOptions{});
     for (const char* s : {"#declare Airmass_rayleigh_Density = function(x, y, z)", "#declare Airmass_ozone_Pattern",
-                          "#macro Airmass_mie_Media()", "scattering { 4, Airmass_rayleigh_Scattering",
+                          "#macro Airmass_mie_Media()", "scattering { 4, Airmass_rayleigh_ScatteringColour * DensityMax extinction",
                           "eccentricity Airmass_mie_G", "absorption Airmass_ozone_Absorption",
                           "#declare Airmass_PlanetCenter = <0, -6360, 0>;", "#declare Airmass_Container"})
         EXPECT_NE(inc.find(s), std::string::npos) << s;

@@ -66,21 +66,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
-
-namespace airmass::cli::render_detail {
-// Defined in cmd_render.cpp (this declaration must stay identical to the definition there).
-struct CameraOverrides {
-    std::string position_m, direction, up;
-    std::optional<double> fov_deg, max_distance_km;
-};
-void add_camera_options(CLI::App* cmd, CameraOverrides& c);
-Scene load_render_scene(const std::string& scene_path, const std::string& preset,
-                        const std::optional<double>& sun_elevation_deg, const std::optional<double>& sun_rotation_deg,
-                        const char* command, const CameraOverrides& camera);
-std::array<double, 3> exporter_rgb_wavelengths(const Scene& scene, const std::string& which);
-CameraModel resized_camera(const Scene& scene, Projection projection, const std::optional<int>& width,
-                           const std::optional<int>& height, SensorFit fit);
-}  // namespace airmass::cli::render_detail
+#include "render_options.hpp"
 
 namespace airmass::cli {
 
@@ -324,32 +310,6 @@ std::string tail_of(const fs::path& log, std::size_t lines) {
     return out;
 }
 
-// The box of the scene frame (metres) holding what the camera sees up to its max distance,
-// within the atmosphere: the bounding box of the camera and of points at max distance along
-// a 17 × 17 grid of pixel directions, cut to the shell's height range.
-MediumBox view_box(const Scene& scene, const CameraModel& cam) {
-    const double D = scene.camera->max_distance_m;
-    glm::dvec3 lo = cam.pose.position_m, hi = cam.pose.position_m;
-    constexpr int n = 16;
-    for (int j = 0; j <= n; ++j)
-        for (int i = 0; i <= n; ++i) {
-            const glm::dvec3 d = camera_ray_direction(cam, cam.width * double(i) / n, cam.height * double(j) / n);
-            const glm::dvec3 p = cam.pose.position_m + D * d;
-            lo = glm::min(lo, p);
-            hi = glm::max(hi, p);
-        }
-    const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
-    // The medium spans altitudes [0, top]; below the ground nothing is seen, above the top
-    // nothing scatters. z of the ground at horizontal distance ρ from the axis: −ρ²/(R + sqrt(R² − ρ²)).
-    const double rho = std::min(std::max({std::abs(lo.x), std::abs(hi.x), std::abs(lo.y), std::abs(hi.y)}), R);
-    const double z_ground = -rho * rho / (R + std::sqrt(std::max(R * R - rho * rho, 0.0)));
-    lo.z = std::max(lo.z, z_ground - 1.0);
-    hi.z = std::min(hi.z, top);
-    // A box that is flat (camera above the top looking up, say) holds no medium.
-    if (!(hi.z > lo.z)) hi.z = lo.z + 1.0;
-    // Pad by a metre so the camera is strictly inside when it sits on a face.
-    return {lo - glm::dvec3(1.0), hi + glm::dvec3(1.0)};
-}
 
 json native_entry(const Scene& scene, const std::string& file, double seconds, const RenderSettings& s) {
     json j{{"file", file},
@@ -851,8 +811,7 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
     cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();
     cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender process")->capture_default_str();
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation, degrees");
+    render_detail::add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
     cmd->add_flag("--no-blender", o->no_blender,
                   "Stop after the native renders and Blender's inputs (job.json: the plan, the constituents and "

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <nlohmann/json.hpp>
 
 #include "airmass/image_io.hpp"
@@ -33,17 +34,7 @@
 #include "commands.hpp"
 #include "csv.hpp"
 #include "ms_options.hpp"
-
-namespace airmass::cli::render_detail {
-
-// Camera options shared by `render` and `compare` (metres, scene frame; fov along the fitted
-// side). cmd_compare.cpp declares the same struct; keep them identical.
-struct CameraOverrides {
-    std::string position_m, direction, up;
-    std::optional<double> fov_deg, max_distance_km;
-};
-
-}  // namespace airmass::cli::render_detail
+#include "render_options.hpp"
 
 namespace airmass::cli {
 
@@ -55,6 +46,7 @@ struct RenderOptions {
     int samples = RenderSettings{}.view_samples;
     std::string chapman = std::string(chapman_method_name(RenderSettings{}.chapman));
     bool renderer_matched = false;
+    std::string matched_renderer = "blender";
     std::string rgb_model = "spectral";
     std::string pixel_filter = "centre";
     std::string rgb_wavelengths = "auto";
@@ -89,6 +81,20 @@ void add_camera_options(CLI::App* cmd, CameraOverrides& c) {
     cmd->add_option("--camera-up", c.up, "Camera up vector X,Y,Z");
     cmd->add_option("--fov", c.fov_deg, "Field of view along the fitted (larger) side, degrees (0, 180)");
     cmd->add_option("--max-distance", c.max_distance_km, "Camera max distance (VDB region), km");
+}
+
+void add_scene_and_size_options(CLI::App* cmd, std::string& scene_path, std::string& preset, std::optional<int>& width,
+                                std::optional<int>& height) {
+    auto* scene_opt = cmd->add_option("scene", scene_path, "Scene file (TOML; docs/scene.md)");
+    auto* preset_opt = cmd->add_option("--preset", preset, "Built-in scene by name");
+    scene_opt->excludes(preset_opt);
+    cmd->add_option("--width", width, "Image width in pixels [default: the camera's]");
+    cmd->add_option("--height", height, "Image height in pixels [default: keeps the camera's aspect]");
+}
+
+void add_sun_overrides(CLI::App* cmd, std::optional<double>& elevation_deg, std::optional<double>& rotation_deg) {
+    cmd->add_option("--sun-elevation", elevation_deg, "Override the sun elevation, degrees [-90, 90]");
+    cmd->add_option("--sun-rotation", rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
 }
 
 void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* command) {
@@ -189,6 +195,33 @@ MediumBox parse_box_km(const std::string& text) {
     return b;
 }
 
+// The box of the scene frame (metres) holding what the camera sees up to its max distance,
+// within the atmosphere: the bounding box of the camera and of points at max distance along
+// a 17 × 17 grid of pixel directions, cut to the shell's height range.
+MediumBox view_box(const Scene& scene, const CameraModel& cam) {
+    const double D = scene.camera->max_distance_m;
+    glm::dvec3 lo = cam.pose.position_m, hi = cam.pose.position_m;
+    constexpr int n = 16;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const glm::dvec3 d = camera_ray_direction(cam, cam.width * double(i) / n, cam.height * double(j) / n);
+            const glm::dvec3 p = cam.pose.position_m + D * d;
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
+    // The medium spans altitudes [0, top]; below the ground nothing is seen, above the top
+    // nothing scatters. z of the ground at horizontal distance ρ from the axis: −ρ²/(R + sqrt(R² − ρ²)).
+    const double rho = std::min(std::max({std::abs(lo.x), std::abs(hi.x), std::abs(lo.y), std::abs(hi.y)}), R);
+    const double z_ground = -rho * rho / (R + std::sqrt(std::max(R * R - rho * rho, 0.0)));
+    lo.z = std::max(lo.z, z_ground - 1.0);
+    hi.z = std::min(hi.z, top);
+    // A box that is flat (camera above the top looking up, say) holds no medium.
+    if (!(hi.z > lo.z)) hi.z = lo.z + 1.0;
+    // Pad by a metre so the camera is strictly inside when it sits on a face.
+    return {lo - glm::dvec3(1.0), hi + glm::dvec3(1.0)};
+}
+
 SensorFit parse_sensor_fit(const std::string& s) {
     if (s == "auto") return SensorFit::automatic;
     if (s == "horizontal") return SensorFit::horizontal;
@@ -204,17 +237,17 @@ void add_render_command(CLI::App& app) {
     using namespace render_detail;
     auto* cmd = app.add_subcommand("render", "Render a scene's camera natively to a 32-bit float EXR (linear Rec.709)");
     auto o = std::make_shared<RenderOptions>();
-    auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
-    auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
-    scene_opt->excludes(preset_opt);
+    add_scene_and_size_options(cmd, o->scene_path, o->preset, o->width, o->height);
     cmd->add_option("-o,--output", o->output, "Output EXR path (written atomically)");
-    cmd->add_option("--width", o->width, "Image width in pixels [default: the camera's]");
-    cmd->add_option("--height", o->height, "Image height in pixels [default: keeps the camera's aspect]");
     cmd->add_option("--samples", o->samples, "Samples per scattering constituent along each view ray")
         ->capture_default_str();
     cmd->add_option("--chapman", o->chapman, "Chapman method (airmass chapman --list-methods)")->capture_default_str();
     cmd->add_flag("--renderer-matched", o->renderer_matched,
                   "Henyey-Greenstein phase functions with the same g (Rayleigh: g = 0), as Blender 3.4 renders");
+    cmd->add_option("--matched-renderer", o->matched_renderer,
+                    "with --renderer-matched: blender (HG only) or povray (Rayleigh kept, the rest HG)")
+        ->check(CLI::IsMember({"blender", "povray"}))
+        ->capture_default_str();
     cmd->add_option("--rgb-model", o->rgb_model,
                     "spectral (the scene's basis -> Rec.709) or renderer (3 wavelengths as R, G, B with the "
                     "sun lamp's RGB irradiance, what Blender renders from the volume export)")
@@ -236,8 +269,7 @@ void add_render_command(CLI::App& app) {
     add_ms_options(cmd, o->ms);
     cmd->add_option("--box", o->box,
                     "Cut the medium to this box of the scene frame, km: X0,Y0,Z0,X1,Y1,Z1 (a VDB 'box' export)");
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Override the sun elevation, degrees [-90, 90]");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
+    add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     add_camera_options(cmd, o->camera);
@@ -254,6 +286,7 @@ void add_render_command(CLI::App& app) {
         if (!method) throw CliError("render: unknown --chapman '" + o->chapman + "'");
         settings.chapman = *method;
         settings.renderer_matched = o->renderer_matched;
+        settings.matched_renderer = o->matched_renderer == "povray" ? MatchedRenderer::povray : MatchedRenderer::blender;
         settings.color = o->rgb_model == "renderer" ? ColorModel::renderer_rgb : ColorModel::spectral;
         settings.pixel_filter = o->pixel_filter == "box" ? PixelFilter::box : PixelFilter::centre;
         if (settings.color == ColorModel::renderer_rgb)

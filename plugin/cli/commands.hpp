@@ -20,6 +20,7 @@ void add_vdb_command(CLI::App& app);      // cmd_vdb.cpp
 void add_render_command(CLI::App& app);   // cmd_render.cpp
 void add_compare_command(CLI::App& app);  // cmd_compare.cpp
 void add_sun_command(CLI::App& app);      // cmd_sun.cpp
+void add_pov_command(CLI::App& app);      // cmd_pov.cpp
 
 // `airmass report <topic>`: measured speed-vs-accuracy trade tables.
 void add_report_chapman(CLI::App& report);  // cmd_report_chapman.cpp

@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
     airmass::cli::add_render_command(app);
     airmass::cli::add_compare_command(app);
     airmass::cli::add_sun_command(app);
+    airmass::cli::add_pov_command(app);
     auto* report = app.add_subcommand("report", "Measured speed-vs-accuracy trade tables and plots' data");
     report->require_subcommand(1);
     airmass::cli::add_report_chapman(*report);

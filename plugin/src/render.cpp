@@ -63,9 +63,10 @@ void validate(const RenderSettings& s) {
     if (s.multiple_scattering) validate(s.multiple);
 }
 
-Scene renderer_matched_scene(const Scene& scene) {
+Scene renderer_matched_scene(const Scene& scene, MatchedRenderer renderer) {
     Scene out = scene;
     for (Constituent& c : out.constituents) {
+        if (renderer == MatchedRenderer::povray && c.phase.kind == PhaseFunction::Kind::rayleigh) continue;
         c.phase.g = henyey_greenstein_g(c.phase);  // the one rule (phase.hpp)
         c.phase.kind = PhaseFunction::Kind::henyey_greenstein;
     }
@@ -356,7 +357,7 @@ void box_limited_radiance(const Atmosphere& atmosphere, const MediumBox& box, co
 FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, const RenderHooks& hooks) {
     validate(scene_in);
     validate(settings);
-    const Scene scene = settings.renderer_matched ? renderer_matched_scene(scene_in) : scene_in;
+    const Scene scene = settings.renderer_matched ? renderer_matched_scene(scene_in, settings.matched_renderer) : scene_in;
     const CameraModel cam = settings.camera ? *settings.camera : camera_from_scene(scene, settings.projection);
     validate(cam);
 
@@ -479,6 +480,8 @@ ImageMetadata render_metadata(const Scene& scene, const RenderSettings& settings
     j["sun_disc"] = settings.sun_disc;
     j["ground"] = settings.ground;
     j["renderer_matched"] = settings.renderer_matched;
+    if (settings.renderer_matched)
+        j["matched_renderer"] = settings.matched_renderer == MatchedRenderer::povray ? "povray" : "blender";
     j["color_model"] = settings.color == ColorModel::spectral ? "spectral" : "renderer_rgb";
     j["pixel_filter"] = settings.pixel_filter == PixelFilter::box ? "box" : "centre";
     if (settings.color == ColorModel::renderer_rgb) {

@@ -73,6 +73,11 @@ struct MediumBox {
     glm::dvec3 max_m{0.0};
 };
 
+// The renderer a renderer-matched image is matched to: Blender 3.4 (Henyey–Greenstein only)
+// or POV-Ray 3.7 (its Rayleigh, scattering type 4, has our Rayleigh's shape; everything else
+// Henyey–Greenstein, type 5; docs/povray.md).
+enum class MatchedRenderer { blender, povray };
+
 struct RenderSettings {
     // The camera; empty: the scene's [camera] (camera_from_scene) with `projection`.
     std::optional<CameraModel> camera;
@@ -82,6 +87,7 @@ struct RenderSettings {
     bool sun_disc = false;  // off by default: a disc a fraction of a pixel wide is not comparable
     bool ground = true;
     bool renderer_matched = false;  // phase functions → Henyey–Greenstein (renderer_matched_scene)
+    MatchedRenderer matched_renderer = MatchedRenderer::blender;  // whose phase functions, with renderer_matched
     ColorModel color = ColorModel::spectral;
     PixelFilter pixel_filter = PixelFilter::centre;
     std::array<double, 3> rgb_wavelengths_nm{680.0, 550.0, 440.0};  // renderer_rgb only
@@ -95,8 +101,9 @@ struct RenderSettings {
 // Throws RenderError naming the first bad field.
 void validate(const RenderSettings& settings);
 
-// The scene with every phase function replaced by Henyey–Greenstein of g = henyey_greenstein_g (phase.hpp).
-Scene renderer_matched_scene(const Scene& scene);
+// The scene with every phase function replaced by Henyey–Greenstein of g = henyey_greenstein_g (phase.hpp);
+// for MatchedRenderer::povray the Rayleigh phase is kept (POV-Ray has it).
+Scene renderer_matched_scene(const Scene& scene, MatchedRenderer renderer = MatchedRenderer::blender);
 
 // The sun's top-of-atmosphere irradiance in linear Rec.709 through the scene's basis,
 // clamped at 0: what a Blender Sun lamp of strength S and colour C must give as S·C, in the

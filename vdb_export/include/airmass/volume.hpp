@@ -101,6 +101,12 @@ struct VdbOptions {
 // --max-dense-mb.
 double auto_voxel_size(const Scene& scene, const VdbOptions& options);
 
+// Thinnest layer of a density profile (metres): the length over which it changes by O(1)
+// (exponential: the scale height; tent: its shorter flank; piecewise linear: the shortest
+// knot spacing; constant: its thickness), at most `thickness_m` (the atmosphere's). The
+// automatic voxel size and `airmass pov`'s media sampling are chosen from it.
+double profile_feature_m(const DensityProfile& p, double thickness_m);
+
 // ---- index space -------------------------------------------------------------------------
 
 using VoxelCoord = std::array<std::int32_t, 3>;

@@ -2,6 +2,7 @@
 // node tree) and a POV-Ray include of function patterns. Both carry exactly what the
 // grids' metadata carries, so a renderer can use either path (docs/vdb.md).
 #include <cstdio>
+#include <numbers>
 #include <sstream>
 
 #include "airmass/phase.hpp"
@@ -68,15 +69,18 @@ std::string pov_profile_expression(const DensityProfile& p, double L, double top
     return "select(" + h + " - " + num(top) + ", " + body + ", 0)";
 }
 
+// POV-Ray's scattering type for a phase function: its own Rayleigh (type 4, the same shape
+// as ours) where it matches, isotropic (1) where it is, and otherwise Henyey–Greenstein (5)
+// with the eccentricity of the project's one phase -> HG rule (henyey_greenstein_g).
 int pov_scattering_type(PhaseFunction::Kind k) {
     switch (k) {
-        case PhaseFunction::Kind::rayleigh:
-        case PhaseFunction::Kind::rayleigh_modified: return 4;  // Rayleigh
-        case PhaseFunction::Kind::cornette_shanks:
-        case PhaseFunction::Kind::henyey_greenstein: return 5;  // Henyey–Greenstein
+        case PhaseFunction::Kind::rayleigh: return 4;
         case PhaseFunction::Kind::isotropic: return 1;
+        case PhaseFunction::Kind::rayleigh_modified:
+        case PhaseFunction::Kind::cornette_shanks:
+        case PhaseFunction::Kind::henyey_greenstein: return 5;
     }
-    return 1;
+    return 5;
 }
 
 std::string pov_rgb(const std::array<double, 3>& a, double scale = 1.0) {
@@ -136,15 +140,29 @@ std::string pov_include(const Scene& scene, const VdbOptions& options) {
       << "// evaluated at " << fmt(layout.rgb_wavelengths_nm[0]) << "/" << fmt(layout.rgb_wavelengths_nm[1]) << "/"
       << fmt(layout.rgb_wavelengths_nm[2]) << " nm (" << layout.spectral_basis << ").\n"
       << "// POV-Ray wraps pattern values above 1 (fmod 1.00001): use the *_Pattern functions, which are\n"
-      << "// normalised to [0, 1], and multiply the media colours by *_DensityMax (the macros do).\n\n"
+      << "// normalised to [0, 1], and multiply the media colours by *_DensityMax (the macros do).\n"
+      << "// Media units (measured in POV-Ray 3.7's media.cpp, docs/povray.md): in-scattered radiance =\n"
+      << "// scattering colour x k(phase) x light colour per unit length, with k = 1 for isotropic\n"
+      << "// scattering (no 1/(4 pi)); type 4 is k = 0.799372013 (1 + mu^2), not 3/4 (1 + mu^2). So a\n"
+      << "// light of colour = irradiance E gives physical radiance when the scattering colour is\n"
+      << "// sigma_s / (4 pi) (Rayleigh: x 0.75 / 0.799372013) and `extinction` restores sigma_s as\n"
+      << "// the extinction: *_ScatteringColour and *_ScatteringExtinction below.\n"
+      << "// Sampling: set Airmass_MediaIntervals / Airmass_MediaSamples before including (defaults 10, 3).\n\n"
+      << "#ifndef (Airmass_MediaIntervals) #declare Airmass_MediaIntervals = 10; #end\n"
+      << "#ifndef (Airmass_MediaSamples) #declare Airmass_MediaSamples = 3; #end\n"
+      << "// Airmass_Pass: 0 (default) every constituent in one render; k > 0 one split pass (docs/povray.md).\n"
+      << "#ifndef (Airmass_Pass) #declare Airmass_Pass = 0; #end\n"
       << "#declare Airmass_PlanetRadius = " << num(R) << ";\n"
       << "#declare Airmass_AtmosphereTop = " << num(layout.atmosphere_top) << ";\n"
       << "#declare Airmass_PlanetCenter = <" << num(c0[0]) << ", " << num(c0[2]) << ", " << num(c0[1]) << ">;\n"
       << "#declare Airmass_Altitude = function(x, y, z) { sqrt((x - " << num(c0[0]) << ")*(x - " << num(c0[0])
       << ") + (y - " << num(c0[2]) << ")*(y - " << num(c0[2]) << ") + (z - " << num(c0[1]) << ")*(z - " << num(c0[1])
       << ")) - " << num(R) << " }\n\n";
+    int index = 0, first_scatterer = 0;
+    std::ostringstream pass_types;
     for (const auto& c : layout.constituents) {
         const std::string n = "Airmass_" + c.name;
+        ++index;
         const double dmax = c.density_max > 0 ? c.density_max : 1.0;
         o << "// " << c.name << ": " << detail::profile_json(c.source->profile, L).dump() << "\n"
           << "#declare " << n << "_Density = function(x, y, z) { "
@@ -154,23 +172,59 @@ std::string pov_include(const Scene& scene, const VdbOptions& options) {
           << "_DensityMax)) }\n"
           << "#declare " << n << "_Scattering = " << pov_rgb(c.scattering_rgb) << ";\n"
           << "#declare " << n << "_Absorption = " << pov_rgb(c.absorption_rgb) << ";\n"
-          << "#declare " << n << "_G = " << num(c.source->phase.g) << ";\n"
-          << "#macro " << n << "_Media()\n"
-          << "  media {\n"
-          << "    method 3 intervals 1 samples 32\n";
+          << "#declare " << n << "_G = " << num(henyey_greenstein_g(c.source->phase)) << ";  // henyey_greenstein_g (phase.hpp)\n";
+        const int type = pov_scattering_type(c.source->phase.kind);
+        // POV-Ray's k over the physical 4 pi p (Rayleigh: 0.799372013 / 0.75; HG and isotropic: 1).
+        const double k_excess = type == 4 ? 0.799372013 / 0.75 : 1.0;
+        const double colour_scale = 1.0 / (4.0 * std::numbers::pi * k_excess);
+        o << "#declare " << n << "_ScatteringColour = " << n << "_Scattering * " << num(colour_scale) << ";\n"
+          << "#declare " << n << "_ScatteringExtinction = " << num(1.0 / colour_scale) << ";\n"
+          << "#declare " << n << "_Index = " << index << ";\n";
         const bool scatters = c.scattering_rgb[0] > 0 || c.scattering_rgb[1] > 0 || c.scattering_rgb[2] > 0;
         const bool absorbs = c.absorption_rgb[0] > 0 || c.absorption_rgb[1] > 0 || c.absorption_rgb[2] > 0;
         if (scatters) {
-            o << "    scattering { " << pov_scattering_type(c.source->phase.kind) << ", " << n << "_Scattering * " << n
-              << "_DensityMax";
-            if (pov_scattering_type(c.source->phase.kind) == 5) o << " eccentricity " << n << "_G";
-            o << " }\n";
+            if (!first_scatterer) first_scatterer = index;
+            pass_types << "#if (Airmass_Pass = " << index << ") #declare Airmass_PassType = " << type
+                       << "; #declare Airmass_PassG = " << num(type == 5 ? henyey_greenstein_g(c.source->phase) : 0.0)
+                       << "; #end\n";
         }
-        if (absorbs) o << "    absorption " << n << "_Absorption * " << n << "_DensityMax\n";
-        o << "    density { function { " << n << "_Pattern(x, y, z) } }\n"
+        // One media of this constituent with any density block (values in [0, 1]) times
+        // DensityMax. Airmass_Pass (docs/povray.md, "Split passes"): 0 renders every
+        // constituent; k renders only scatterer k's in-scatter, with every media given k's
+        // phase (POV-Ray averages the phase functions of all media on a ray: media.cpp
+        // ComputeMediaScatteringAttenuation) and the others' scattering turned into absorption
+        // so that the extinction stays whole.
+        o << "#macro " << n << "_MediaOf(DensityMax, Density)\n"
+          << "  media {\n"
+          << "    method 3 intervals Airmass_MediaIntervals samples Airmass_MediaSamples\n";
+        if (scatters) {
+            o << "    #if (Airmass_Pass = 0 | Airmass_Pass = " << n << "_Index)\n"
+              << "      scattering { " << type << ", " << n << "_ScatteringColour * DensityMax";
+            if (type == 5) o << " eccentricity " << n << "_G";
+            o << " extinction " << n << "_ScatteringExtinction }\n";
+            if (absorbs) o << "      absorption " << n << "_Absorption * DensityMax\n";
+            o << "    #else\n"
+              << "      Airmass_PassScattering()\n"
+              << "      absorption (" << n << "_Absorption + " << n << "_Scattering) * DensityMax\n"
+              << "    #end\n";
+        } else {
+            o << "    #if (Airmass_Pass != 0) Airmass_PassScattering() #end\n";
+            if (absorbs) o << "    absorption " << n << "_Absorption * DensityMax\n";
+        }
+        o << "    density { Density }\n"
           << "  }\n"
+          << "#end\n"
+          << "#macro " << n << "_Media()\n"
+          << "  " << n << "_MediaOf(" << n << "_DensityMax, density { function { " << n << "_Pattern(x, y, z) } })\n"
           << "#end\n\n";
     }
+    o << "// Split passes: the phase every media takes in pass k (scatterer k's).\n"
+      << "#declare Airmass_PassType = 1; #declare Airmass_PassG = 0;\n"
+      << pass_types.str() << "#declare Airmass_FirstPass = " << first_scatterer << ";\n"
+      << "// A media that does not scatter in this pass still takes its phase (POV-Ray allows eccentricity on type 5 only).\n"
+      << "#macro Airmass_PassScattering()\n"
+      << "  #if (Airmass_PassType = 5) scattering { 5, rgb 0 eccentricity Airmass_PassG } #else scattering { Airmass_PassType, rgb 0 } #end\n"
+      << "#end\n\n";
     o << "// The atmosphere's container: media are evaluated inside it (hollow, invisible surface).\n"
       << "#declare Airmass_Container = sphere { Airmass_PlanetCenter, Airmass_AtmosphereTop\n"
       << "  hollow pigment { rgbt 1 }\n"

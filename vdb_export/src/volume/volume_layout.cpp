@@ -108,7 +108,9 @@ double profile_max(const DensityProfile& p, double h_lo, double h_hi) {
     return m;
 }
 
-// Thinnest layer of a profile (metres): the length over which it changes by O(1).
+}  // namespace
+
+// volume.hpp
 double profile_feature_m(const DensityProfile& p, double thickness_m) {
     switch (p.kind) {
         case DensityProfile::Kind::exponential: return p.scale_height_m;
@@ -133,6 +135,8 @@ double profile_feature_m(const DensityProfile& p, double thickness_m) {
     }
     return thickness_m;
 }
+
+namespace {
 
 // Altitude band (metres) outside which rho < threshold, clipped to
 // [−ground_margin, thickness]; empty (min > max) when the constituent has no active cell.
