@@ -19,16 +19,15 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
 
 #include "airmass/chapman.hpp"
+#include "airmass/atomic_file.hpp"
 #include "airmass/image_io.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/progress.hpp"
@@ -244,26 +243,6 @@ std::string default_csv_path(const std::string& pattern, const Sequence& q) {
     return (p.parent_path() / (base + ".csv")).string();
 }
 
-void write_text_atomic(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw CliError("sky: " + path + ": cannot write");
-        out << text;
-        out.flush();
-        if (!out) {
-            std::filesystem::remove(tmp);
-            throw CliError("sky: " + path + ": cannot write");
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp);
-        throw CliError("sky: " + path + ": cannot write (" + ec.message() + ")");
-    }
-}
-
 void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& settings) {
     if (o.sun_elevation_deg || o.sun_rotation_deg)
         throw CliError("sky: --time-range takes the sun from the place and time; drop --sun-elevation/--sun-rotation");
@@ -299,6 +278,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
         }
     }
     for (const Frame& f : frames) check_exr_destination(f.path);
+    check_output_destination(csv_path);  // not after every frame is rendered
 
     CancelFlag cancel;
     InterruptGuard guard(cancel);
@@ -334,7 +314,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
         const std::string shown = format_utc(f.time);  // YYYY-MM-DDThh:mm:ss[.fff]Z
         metadata.emplace_back("DateTime", shown.substr(0, 4) + ":" + shown.substr(5, 2) + ":" + shown.substr(8, 2) +
                                               " " + shown.substr(11, 8));
-        write_exr_atomic(f.path, image, metadata);
+        write_exr_atomic(f.path, image, metadata, &cancel);
         const SunLight light = sun_light_at_observer(scene, settings.chapman);
         const glm::dvec3 colour = light.lamp_colour();
         csv += std::to_string(f.number) + "," + format_utc(f.time) + "," + format_place(lat) + "," +
@@ -343,7 +323,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
                format_g17(light.angular_diameter_deg) + "," + std::filesystem::path(f.path).filename().string() +
                "\n";
     }
-    write_text_atomic(csv_path, csv);
+    write_file_atomic(csv_path, csv, &cancel);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!o.quiet)
         std::fprintf(stderr, "sky: wrote frames %d-%d of %d (%dx%d) and %s (%.4f s, tables %s)\n", q.first, q.last,
@@ -456,10 +436,9 @@ void add_sky_command(CLI::App& app) {
             image = render_sky(scene, settings, hooks);
         }
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        // Past this point the file is either not started or complete: a cancel that arrives
-        // during the (short) write is honoured only before it begins.
+        // A cancel up to the rename keeps the previous file (write_exr_atomic discards its temporary).
         if (cancel.requested()) throw Cancelled("sky: cancelled; no file written");
-        write_exr_atomic(o->output, image, sky_metadata(scene, settings));
+        write_exr_atomic(o->output, image, sky_metadata(scene, settings), &cancel);
         if (!o->quiet)
             std::fprintf(stderr, "sky: wrote %s (%dx%d, %s, %s, %.4f s render)\n", o->output.c_str(),
                          settings.width, settings.height,

@@ -29,8 +29,13 @@ EXAMPLE = REPO / "examples" / "cpp"
 # tree renders it; relative tolerance 1e-4 (threads, compilers, dispatch kernels differ in rounding).
 KNOWN_SKY = {
     "mean_rgb": [10.6371619, 9.28506822, 8.50031669],     # the sun disc's pixel dominates the mean
-    "zenith_rgb": [0.780369043, 1.39607942, 3.08934855],  # row 0: straight up, blue
+    "zenith_rgb": [0.780500174, 1.39644003, 3.0904696],   # row 0: straight up, blue
 }
+# Recorded from the installed library's own output (a regression check of the installed tree,
+# not a physics reference). zenith_rgb moved by +0.02-0.04 % on 2026-12-02 when the sky's
+# multiple scattering came to be interpolated from the per-observer view (--ms-grid 32) and
+# the grid normalised by the view transmittance; both measured against per-ray, per-pixel
+# evaluation in docs/sky.md.
 SKY_RTOL = 1e-4
 
 

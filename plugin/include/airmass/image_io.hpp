@@ -34,8 +34,8 @@ void check_exr_destination(const std::filesystem::path& path);
 void write_exr_atomic(const std::filesystem::path& path, const FloatImage& image, const ImageMetadata& metadata,
                       const CancelFlag* cancel = nullptr);
 
-// Reads an image as 32-bit float (any format OpenImageIO reads), with its string
-// attributes. For tests and reports. Throws ImageWriteError (naming the path) on failure.
+// Reads an OpenEXR image as 32-bit float (channels R, G, B, A or Y, A in that order, else the
+// file's), with its string attributes. For tests and reports. Throws ImageWriteError (naming the path) on failure.
 FloatImage read_image(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
 
 }  // namespace airmass
