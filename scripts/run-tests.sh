@@ -7,6 +7,8 @@ bash "$root/scripts/setup.sh"
 bash "$root/scripts/build.sh"
 build="${AIRMASS_BUILD_DIR:-$root/build}"
 cd "$build"
+# The CLI's table cache (docs/sky.md) goes into the build folder, not the user's ~/.cache.
+export AIRMASS_CACHE_DIR="${AIRMASS_CACHE_DIR:-$build/table-cache}"
 ctest --output-on-failure -j "${AIRMASS_JOBS:-$(nproc)}" --timeout 2400 "$@"
 # The fuzz corpora are replayed by the main ctest above (fuzz_replay_*, every build).
 # Reliability stages (docs/reliability.md), each in its own build folder beside the main one:
