@@ -2,13 +2,14 @@
 # Writes airmass::detail::kSourceDigest: a SHA-256 over the library's sources, so data a build
 # keeps between runs (the multiple-scattering table cache, airmass/table_store.hpp) is never
 # read by a build of other sources. Rewrites OUT only when the digest changes.
-file(GLOB SOURCES ${PLUGIN_DIR}/src/*.cpp ${PLUGIN_DIR}/src/*.inc ${PLUGIN_DIR}/src/*.hpp
+file(GLOB_RECURSE SOURCES ${PLUGIN_DIR}/src/*.cpp ${PLUGIN_DIR}/src/*.inc ${PLUGIN_DIR}/src/*.hpp
      ${PLUGIN_DIR}/include/airmass/*.hpp)
+list(FILTER SOURCES EXCLUDE REGEX "plugin/src/io/")
 list(SORT SOURCES)
 set(_all "")
 foreach(_f IN LISTS SOURCES)
   file(SHA256 "${_f}" _h)
-  get_filename_component(_n "${_f}" NAME)
+  file(RELATIVE_PATH _n "${PLUGIN_DIR}" "${_f}")
   string(APPEND _all "${_n}:${_h};")
 endforeach()
 string(SHA256 _digest "${_all}")

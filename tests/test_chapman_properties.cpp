@@ -11,7 +11,7 @@
 
 #include <cerf.h>
 
-#include "chapman_published.hpp"
+#include "math/chapman_published.hpp"
 
 namespace airmass {
 namespace {

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <numbers>
 
-#include "message_format.hpp"
+#include "support/message_format.hpp"
 
 namespace airmass {
 

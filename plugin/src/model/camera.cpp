@@ -10,7 +10,7 @@
 
 #include "airmass/sky.hpp"
 
-#include "message_format.hpp"
+#include "support/message_format.hpp"
 
 namespace airmass {
 

@@ -25,7 +25,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/version.hpp"
 
-#include "message_format.hpp"
+#include "support/message_format.hpp"
 
 namespace airmass {
 
