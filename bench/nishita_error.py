@@ -36,7 +36,7 @@ def read(path):
 
 def airmass_sky(exe, out, width, elevation, extra):
     cmd = [exe, "sky", "--preset", "blender-nishita", "-o", out, "--width", str(width), "--height", str(width // 2),
-           "--hemisphere", "upper", "--no-multiple", "--no-sun-disc", "--altitude", "1",
+           "--hemisphere", "upper", "--no-multiple", "--no-sun-disc", "--altitude-km", "0.001",
            "--sun-elevation", str(elevation), "--sun-rotation", "90", "--quiet"] + extra
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:

@@ -30,8 +30,8 @@ SKIES=(
   "sunrise|Sunrise, sun 2°|--sun-elevation 2"
   "noon|Noon, sun 60°|--sun-elevation 60"
   "twilight|Twilight, sun −4°|--sun-elevation -4"
-  "10km|From 10 km, sun 20°|--sun-elevation 20 --altitude 10000"
-  "orbit|The planet from 400 km, sun 30°|--sun-elevation 30 --altitude 400000"
+  "10km|From 10 km, sun 20°|--sun-elevation 20 --altitude-km 10"
+  "orbit|The planet from 400 km, sun 30°|--sun-elevation 30 --altitude-km 400"
 )
 
 for entry in "${SKIES[@]}"; do

@@ -41,7 +41,7 @@ def render(cli, preset, out, phase, view, width, samples):
         f.write('preset = "%s"\nname = "study"\n\n[[constituent]]\nname = "%s"\nphase = %s\n' % (preset, name, phase))
     cmd = [cli, "render", toml, "-o", out + ".exr", "--width", str(width), "--samples", str(samples), "-q"]
     if view["panoramic"]:
-        cmd += ["--panoramic", "--camera-position", "0,0,2", "--camera-direction", "1,0,0", "--camera-up", "0,0,1"]
+        cmd += ["--panoramic", "--camera-position-km", "0,0,0.002", "--camera-direction", "1,0,0", "--camera-up", "0,0,1"]
     if view.get("sun") is not None:
         cmd += ["--sun-elevation", str(view["sun"])]
     subprocess.run(cmd, check=True)

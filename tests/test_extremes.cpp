@@ -215,9 +215,10 @@ TEST(Extremes, Camera) {
             {1e18, E::refuse}}});
     sweep({"camera.height", [](const std::string& v) { return kBase + "[camera]\nheight = " + v + "\n"; },
            {{0.0, E::refuse}, {1.0, E::accept}, {65536.0, E::accept}, {65537.0, E::refuse}}});
-    sweep({"camera.position_m",
-           [](const std::string& v) { return kBase + "[camera]\nposition_m = [0.0, 0.0, " + v + "]\n"; },
-           {{0.0, E::accept}, {-1e300, E::either}, {1e300, E::either}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+    sweep({"camera.position_km",
+           [](const std::string& v) { return kBase + "[camera]\nposition_km = [0.0, 0.0, " + v + "]\n"; },
+           {{0.0, E::accept}, {1e7, E::accept}, {1.000001e7, E::refuse}, {-1e7, E::accept}, {-1.000001e7, E::refuse},
+            {-1e300, E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
     sweep({"camera.direction",
            [](const std::string& v) { return kBase + "[camera]\ndirection = [" + v + ", 0.0, 0.0]\n"; },
            {{0.0, E::refuse}, {kDenorm, E::either}, {1e-300, E::either}, {1.0, E::accept}, {1e300, E::either},

@@ -281,7 +281,7 @@ TEST(SceneParse, UnitsAreConvertedToSi) {
 altitude_km = 2.5
 
 [camera]
-position_m = [0, 0, 3]
+position_km = [0, 0, 0.003]
 direction = [0, 1, 0.1]
 fov_deg = 40
 max_distance_km = 150
@@ -299,12 +299,24 @@ irradiance = { type = "constant", value_w_m2_nm = 1.6 }
     const Scene s = airmass::parse_scene_toml(text, "test.toml");
     EXPECT_EQ(s.observer.altitude_m, 2500.0);
     ASSERT_TRUE(s.camera.has_value());
-    EXPECT_EQ(s.camera->position_m[2], 3.0);
+    EXPECT_DOUBLE_EQ(s.camera->position_m[2], 3.0);
     EXPECT_EQ(s.camera->max_distance_m, 150e3);
     EXPECT_EQ(s.camera->width, 320);
     EXPECT_EQ(s.sun.azimuth_deg, 90.0);
     EXPECT_EQ(s.sun.irradiance_constant, 1.6 / 4.0);  // given at 1 AU, the sun at 2 AU
     EXPECT_EQ(find(s, "mie").profile.reference_altitude_m, 500.0);
+}
+
+// Every length a person types is in km: the old metres key is refused with a pointer to the new one,
+// never read as km by mistake.
+TEST(SceneParse, CameraPositionIsInKilometres) {
+    const std::string old_key = with(kMinimal, "[spectrum]", "[camera]\nposition_m = [0, 0, 2]\n\n[spectrum]");
+    const std::string err = error_of(old_key);
+    EXPECT_NE(err.find("camera.position_m"), std::string::npos) << err;
+    EXPECT_NE(err.find("position_km"), std::string::npos) << err;
+    const std::string far = with(kMinimal, "[spectrum]", "[camera]\nposition_km = [0, 0, 2e7]\n\n[spectrum]");
+    EXPECT_NE(error_of(far).find("camera.position_km[2]"), std::string::npos) << error_of(far);
+    EXPECT_NE(error_of(far).find("[-1e7, 1e7]"), std::string::npos) << error_of(far);
 }
 
 TEST(SceneParse, ZeroConstituentsAreAllowedAndDropped) {

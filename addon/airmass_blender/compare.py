@@ -170,7 +170,7 @@ def scene_toml(scene_json, camera):
         for k, v in body.items():
             lines.append("%s = %s" % _toml_pair(k, v, "%s.%s" % (table, k)))
     lines += ["", "[camera]"]
-    for k in ("position_m", "direction", "up", "fov_deg", "width", "height", "max_distance_km"):
+    for k in ("position_km", "direction", "up", "fov_deg", "width", "height", "max_distance_km"):
         lines.append("%s = %s" % (k, _toml_value(camera[k], "camera." + k)))
     for i, c in enumerate(scene_json.get("constituents") or []):
         lines += ["", "[[constituent]]"]
@@ -245,7 +245,7 @@ def camera_for_cli(scene, cam, unit_m, width, max_distance_km):
     depth = abs(frame[0].z)
     half = max(max(abs(v.x) for v in frame), max(abs(v.y) for v in frame))
     fov_deg = math.degrees(2.0 * math.atan(half / depth))
-    return {"position_m": [float(x) * unit_m for x in m.translation], "direction": [float(x) for x in direction],
+    return {"position_km": [float(x) * unit_m / 1000.0 for x in m.translation], "direction": [float(x) for x in direction],
             "up": [float(x) for x in up], "fov_deg": fov_deg, "width": int(width), "height": int(height),
             "max_distance_km": float(max_distance_km)}
 

@@ -76,7 +76,7 @@ std::vector<double> parse_numbers(const std::string& text, std::size_t count, co
 namespace airmass::cli::render_detail {
 
 void add_camera_options(CLI::App* cmd, CameraOverrides& c) {
-    cmd->add_option("--camera-position", c.position_m, "Camera position X,Y,Z in metres (scene frame)");
+    cmd->add_option("--camera-position-km", c.position_km, "Camera position X,Y,Z in km (scene frame)");
     cmd->add_option("--camera-direction", c.direction, "Camera view direction X,Y,Z");
     cmd->add_option("--camera-up", c.up, "Camera up vector X,Y,Z");
     cmd->add_option("--fov", c.fov_deg, "Field of view along the fitted (larger) side, degrees (0, 180)");
@@ -104,7 +104,14 @@ void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* 
         const std::vector<double> v = parse_numbers(text, 3, opt);
         for (int i = 0; i < 3; ++i) out[i] = v[i];
     };
-    vec(o.position_m, c.position_m, "--camera-position");
+    vec(o.position_km, c.position_m, "--camera-position-km");
+    if (!o.position_km.empty()) {
+        for (double& x : c.position_m) {
+            if (!(std::isfinite(x) && std::abs(x) <= 1e7))
+                throw CliError(std::string(command) + ": --camera-position-km: each component must be in [-1e7, 1e7] km");
+            x *= 1000.0;
+        }
+    }
     vec(o.direction, c.direction, "--camera-direction");
     vec(o.up, c.up, "--camera-up");
     if (o.fov_deg) {

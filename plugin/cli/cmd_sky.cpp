@@ -2,7 +2,7 @@
 // float EXR in Blender's equirectangular convention (docs/sky.md).
 //
 //   airmass sky (--preset NAME | SCENE.toml) -o sky.exr [--width W --height H --samples N
-//       --chapman METHOD --sun-elevation DEG --sun-rotation DEG --altitude M --no-sun-disc
+//       --chapman METHOD --sun-elevation DEG --sun-rotation DEG --altitude-km KM --no-sun-disc
 //       --basis rgb|spectral --wavelengths SPEC --hemisphere full|upper --threads N --quiet
 //       --no-multiple --ms-mode orders|isotropic_lut --ms-orders K --ms-samples N --ms-table A,V,S,Z]
 //
@@ -51,7 +51,7 @@ struct SkyOptions {
     std::optional<int> height;
     int samples = SkySettings{}.view_samples;
     std::string chapman = std::string(chapman_method_name(SkySettings{}.chapman));
-    std::optional<double> sun_elevation_deg, sun_rotation_deg, altitude_m;
+    std::optional<double> sun_elevation_deg, sun_rotation_deg, altitude_km;
     bool no_sun_disc = false;
     std::string basis;  // "", "rgb", "spectral"
     std::string wavelengths;
@@ -121,7 +121,7 @@ std::vector<double> parse_wavelengths(const std::string& spec) {
 
 // The scene and settings an `airmass sky`-style command line asks for.
 void apply_sky_overrides(Scene& scene, const std::optional<double>& sun_elevation_deg,
-                         const std::optional<double>& sun_rotation_deg, const std::optional<double>& altitude_m,
+                         const std::optional<double>& sun_rotation_deg, const std::optional<double>& altitude_km,
                          const std::string& basis, const std::string& wavelengths) {
     if (sun_elevation_deg) {
         if (!(*sun_elevation_deg >= -90.0 && *sun_elevation_deg <= 90.0))
@@ -134,10 +134,10 @@ void apply_sky_overrides(Scene& scene, const std::optional<double>& sun_elevatio
         // An angle: any number of turns means the same direction (as in Blender's node).
         scene.sun.azimuth_deg = std::fmod(*sun_rotation_deg, 360.0);
     }
-    if (altitude_m) {
-        if (!(*altitude_m >= 0.0 && *altitude_m <= 1e9))
-            throw CliError("sky: --altitude " + format_g17(*altitude_m) + ": must be in [0, 1e9] metres");
-        scene.observer.altitude_m = *altitude_m;
+    if (altitude_km) {
+        if (!(*altitude_km >= 0.0 && *altitude_km <= 1e6))
+            throw CliError("sky: --altitude-km " + format_g17(*altitude_km) + ": must be in [0, 1e6] km");
+        scene.observer.altitude_m = *altitude_km * 1000.0;
     }
     if (basis == "rgb") {
         if (!wavelengths.empty())
@@ -352,7 +352,7 @@ void add_sky_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Sun elevation above the horizon, degrees [-90, 90]");
     cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Sun rotation as Blender's Sky Texture: 0 → +Y, 90 → +X");
-    cmd->add_option("--altitude", o->altitude_m, "Observer altitude above the surface, metres");
+    cmd->add_option("--altitude-km", o->altitude_km, "Observer altitude above the surface, km [0, 1e6] (as [observer] altitude_km)");
     cmd->add_flag("--no-sun-disc", o->no_sun_disc, "Leave out the solar disc");
     cmd->add_option("--basis", o->basis, "rgb (Schüler 615/535/445 nm) or spectral  [default: the scene's]")
         ->check(CLI::IsMember({"rgb", "spectral"}));
@@ -391,7 +391,7 @@ void add_sky_command(CLI::App& app) {
             throw CliError("sky: give a scene file or --preset NAME (one of them)");
         if (o->output.empty()) throw CliError("sky: -o/--output is required");
         Scene scene = o->preset.empty() ? load_scene_file(o->scene_path) : load_preset(o->preset);
-        apply_sky_overrides(scene, o->sun_elevation_deg, o->sun_rotation_deg, o->altitude_m, o->basis, o->wavelengths);
+        apply_sky_overrides(scene, o->sun_elevation_deg, o->sun_rotation_deg, o->altitude_km, o->basis, o->wavelengths);
         if (o->sun_elevation_deg || o->sun_rotation_deg) scene.sun.place.reset();  // the angles given win
 
         SkySettings settings;

@@ -18,7 +18,7 @@ namespace airmass::cli::render_detail {
 // Camera options shared by `render`, `compare` and `pov` (metres, scene frame; fov along
 // the fitted side).
 struct CameraOverrides {
-    std::string position_m, direction, up;
+    std::string position_km, direction, up;  // position in km, as in the scene file
     std::optional<double> fov_deg, max_distance_km;
 };
 void add_camera_options(CLI::App* cmd, CameraOverrides& c);

@@ -63,7 +63,7 @@ def scene_file(tmp_path, name, camera, sun=(20.0, 30.0), extra=""):
 elevation_deg = %r
 azimuth_deg = %r
 [camera]
-position_m = [%r, %r, %r]
+position_km = [%r, %r, %r]
 direction = [%r, %r, %r]
 up = [%r, %r, %r]
 fov_deg = %r
@@ -215,7 +215,7 @@ def test_extremes_are_finite(airmass_bin, tmp_path, elevation, height_m):
 
 def test_bad_input_names_the_field(airmass_bin, tmp_path):
     scene = os.path.join(EXAMPLES, "ground-noon.toml")
-    p = run([airmass_bin, "render", scene, "-o", tmp_path / "x.exr", "--camera-position", "0,0,-5"], check=False)
+    p = run([airmass_bin, "render", scene, "-o", tmp_path / "x.exr", "--camera-position-km", "0,0,-0.005"], check=False)
     assert p.returncode != 0 and "below the planet surface" in p.stderr
     p = run([airmass_bin, "render", scene, "-o", tmp_path / "x.exr", "--box", "1,2,3"], check=False)
     assert p.returncode != 0 and "--box" in p.stderr

@@ -201,7 +201,7 @@ def test_matches_blenders_own_nishita_sky(airmass_bin, tmp_path, elevation, rota
     ours_exr = tmp_path / "airmass.exr"
     proc = subprocess.run([str(airmass_bin), "sky", "--preset", "blender-nishita", "-o", str(ours_exr), "--quiet",
                            "--width", str(w), "--height", str(h), "--sun-elevation", str(elevation),
-                           "--sun-rotation", str(rotation), "--altitude", "1", "--no-sun-disc",
+                           "--sun-rotation", str(rotation), "--altitude-km", "0.001", "--no-sun-disc",
                            "--no-multiple"],  # Blender 3.4's Nishita sky is single scattering
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr

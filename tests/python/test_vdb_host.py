@@ -28,7 +28,7 @@ BOX = (-10.0, -10.0, -1.0, 10.0, 10.0, 62.0)
 # The earth preset with a camera 2 m up looking +X, 2° up, 60° over 320×180, 100 km.
 VIEW_TOML = """preset = "earth"
 [camera]
-position_m = [0.0, 0.0, 2.0]
+position_km = [0.0, 0.0, 0.002]
 direction = [1.0, 0.0, 0.035]
 up = [0.0, 0.0, 1.0]
 fov_deg = 60.0

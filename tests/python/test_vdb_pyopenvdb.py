@@ -199,7 +199,7 @@ def test_camera_inside_the_planet_is_refused(airmass_bin, tmp_path):
     assert json.loads(earth)["active_voxels"] > 0
     scene = tmp_path / "s.toml"
     # The earth preset with a camera 10 m below the ground (docs/scene.md, "Inheriting a preset").
-    scene.write_text('preset = "earth"\n[camera]\nposition_m = [0.0, 0.0, -10.0]\n')
+    scene.write_text('preset = "earth"\n[camera]\nposition_km = [0.0, 0.0, -0.01]\n')
     out = tmp_path / "x.vdb"
     p = run(airmass_bin, "vdb", scene, "--region", "view", "--voxel-size", "4", "-o", out, check=False)
     assert p.returncode == 2

@@ -396,9 +396,11 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
 
     const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
     if (!(frame.altitude_m >= 0.0))
-        throw RenderError("camera.position_m = (" + message_number(cam.pose.position_m.x) + ", " + message_number(cam.pose.position_m.y) +
-                          ", " + message_number(cam.pose.position_m.z) + "): " + message_number(-frame.altitude_m) +
-                          " m below the planet surface; it must be at or above it");
+        throw RenderError("camera.position_km = (" + message_number(cam.pose.position_m.x / 1000.0) + ", " +
+                          message_number(cam.pose.position_m.y / 1000.0) + ", " +
+                          message_number(cam.pose.position_m.z / 1000.0) + "): " +
+                          message_number(-frame.altitude_m / 1000.0) +
+                          " km below the planet surface; it must be at or above it");
     const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
     const glm::dvec3 sun_obs = frame.to_observer(sun);
     const glm::dvec3 up = glm::normalize(cam.pose.position_m - glm::dvec3(0, 0, -R));

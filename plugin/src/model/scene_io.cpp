@@ -246,7 +246,11 @@ void validate_vec3(const std::string& path, const double (&v)[3], bool nonzero) 
 }
 
 void validate_camera(const Camera& c) {
-    validate_vec3("camera.position_m", c.position_m, false);
+    for (int i = 0; i < 3; ++i) {
+        const double km = c.position_m[i] / kMetresPerKm;
+        require_range(std::isfinite(km) && std::abs(km) <= 1e7, "camera.position_km[" + std::to_string(i) + "]", km,
+                      "must be in [-1e7, 1e7]");
+    }
     validate_vec3("camera.direction", c.direction, true);
     validate_vec3("camera.up", c.up, true);
     const double* d = c.direction;
@@ -628,7 +632,13 @@ private:
                 std::copy(v->begin(), v->end(), out);
             }
         };
-        vec3("position_m", c.position_m);
+        // Every length a person types is in km (docs/scene.md); the library keeps metres.
+        if (r.has("position_m"))
+            r.fail(t.get("position_m"), "position_m",
+                   ": no longer read — the camera position is position_km, in kilometres like every length in the "
+                   "scene file (multiply metres by 0.001)");
+        vec3("position_km", c.position_m);
+        for (double& x : c.position_m) x *= kMetresPerKm;
         vec3("direction", c.direction);
         vec3("up", c.up);
         c.fov_deg = r.number("fov_deg", c.fov_deg);
