@@ -569,7 +569,7 @@ def analyse(d, job):
             entry["fraction_beyond_3_sigma"] = st["fraction_beyond_3_sigma"]
             entry["per_channel"] = st["per_channel"]
             entry["blender"] = {
-                "version": info.get("blender_version"),
+                "version": info.get("blender_version", info.get("version")),  # POV-Ray's info: "version"
                 "samples_per_seed": info.get("samples"),
                 "seeds": info.get("seeds"),
                 "render_seconds_per_seed": info["render_seconds"][mode],

@@ -346,8 +346,9 @@ json native_entry(const Scene& scene, const std::string& file, double seconds, c
         // The Henyey–Greenstein g this image was rendered with (the one rule, henyey_greenstein_g):
         // the material's Volume Scatter gets the same (tests/blender/test_material_graph.py).
         json g = json::object();
-        for (const auto& c : renderer_matched_scene(scene).constituents) g[c.name] = c.phase.g;
+        for (const auto& c : renderer_matched_scene(scene, s.matched_renderer).constituents) g[c.name] = c.phase.g;
         j["henyey_greenstein_g"] = g;
+        j["matched_renderer"] = s.matched_renderer == MatchedRenderer::povray ? "povray" : "blender";
     }
     if (s.medium_box) {
         const auto& b = *s.medium_box;
@@ -870,10 +871,12 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             std::string version;
             {
                 std::ifstream in(log);
-                for (std::string l; std::getline(in, l);)
-                    if (const auto k = l.find("POV-Ray 3."); k != std::string::npos && version.empty()) {
-                        version = l.substr(k + 8);
-                        version = version.substr(0, version.find_first_of(" \t\r,"));
+                // POV-Ray's banner: "Persistence of Vision(tm) Ray Tracer Version 3.7.0.10.unofficial (...".
+                const std::string tag = "Ray Tracer Version ";
+                for (std::string l; std::getline(in, l) && version.empty();)
+                    if (const auto k = l.find(tag); k != std::string::npos) {
+                        version = l.substr(k + tag.size());
+                        version = version.substr(0, version.find_first_of(" \t\r("));
                     }
             }
             json info{{"renderer", "povray"},

@@ -12,7 +12,9 @@
   own direction; every rendered pixel must read the direction Blender's equirectangular camera
   (written here, independently of camera.cpp) puts through it;
 * a scene the df3 cannot hold is refused for pov_df3 with the option named, before POV-Ray runs,
-  while the other paths go on.
+  while the other paths go on; Ctrl-C during a POV-Ray render kills it.
+(`airmass compare --panoramic --paths pov_sky` against the native panorama is measured in
+docs/povray.md, not run here: it costs ~17 s.)
 """
 import json
 import math
@@ -72,6 +74,7 @@ def test_pov_paths_report_as_the_blender_paths(pov_compare):
         assert e["renderer"] == "povray"
         assert e["noise_rel"] == 0.0  # deterministic: one render, no noise
         assert e["blender_seconds"] > 0
+        assert e["blender"]["version"].startswith("3.7"), e["blender"]["version"]
         assert (d / "png" / f"{path}_side_by_side.png").is_file()
     report = (d / "report.md").read_text()
     for what in ("Half-float EXR", "Split passes", "Media sampling", "df3 voxels", "trilinear"):
@@ -118,15 +121,51 @@ def test_df3_sampling_error_is_measured_at_twice_the_intervals(airmass_bin, tmp_
 
 
 def test_df3_too_large_is_refused_for_that_path_before_povray(airmass_bin, tmp_path):
-    p = run([airmass_bin, "compare", NOON, "-o", tmp_path, "--width", 8, "--height", 5, "--paths", "pov_sky,pov_df3",
+    p = run([airmass_bin, "compare", NOON, "-o", tmp_path, "--width", 8, "--height", 5,
+             "--paths", "pov_analytic,pov_df3", "--pov-intervals", 2, "--pov-refine", "false",
              "--voxel-size", "0.0005", "--python", "/usr/bin/python3", "-q"])
     summary = json.loads((tmp_path / "summary.json").read_text())
     err = summary["paths"]["pov_df3"]["error"]
     assert "--voxel-size" in err and "65535" in err, err
-    assert "error" not in summary["paths"]["pov_sky"]
+    assert "error" not in summary["paths"]["pov_analytic"]
     assert not (tmp_path / "povray_pov_df3.log").exists()  # POV-Ray never started for it
     assert not list(tmp_path.glob("pov_df3*.df3"))
     assert p.returncode == 0
+
+
+def test_interrupted_compare_kills_povray(airmass_bin, tmp_path):
+    """Ctrl-C (SIGINT) while POV-Ray renders: compare stops its child's process group, exits
+    non-zero, and no POV-Ray process of this run is left."""
+    import os
+    import signal
+    import time
+    p = subprocess.Popen([str(airmass_bin), "compare", str(NOON), "-o", str(tmp_path), "--width", "16", "--height", "9",
+                          "--paths", "pov_df3", "--pov-intervals", "400", "--python", "/usr/bin/python3", "-q"],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+    def ours():
+        """POV-Ray processes whose working directory is this run's folder."""
+        found = []
+        for pid in os.listdir("/proc"):
+            if pid.isdigit():
+                try:
+                    if (os.readlink(f"/proc/{pid}/cwd") == str(tmp_path)
+                            and open(f"/proc/{pid}/comm").read().strip() == "povray"):
+                        found.append(int(pid))
+                except OSError:
+                    pass
+        return found
+
+    t0 = time.time()
+    while not ours() and p.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.2)
+    assert ours(), "POV-Ray never started"
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=30)
+    assert p.returncode != 0
+    assert "cancelled" in err
+    time.sleep(0.5)
+    assert ours() == []
 
 
 def blender_equirectangular_directions(direction, up, width, height):
@@ -181,15 +220,3 @@ def test_panoramic_camera_orientation(airmass_bin, tmp_path):
     # Bilinear interpolation of unit vectors between texels 0.35 deg apart, stored as half floats
     # (2^-11): well under a tenth of a degree; a wrong axis is tens of degrees off.
     assert angle.max() < 0.1
-
-
-def test_panoramic_pov_sky_matches_the_native_panorama(airmass_bin, tmp_path):
-    """The same end to end: `airmass compare --panoramic --paths pov_sky` (POV-Ray's spherical
-    camera on the sky texture against the native equirectangular camera, box filter)."""
-    run([airmass_bin, "compare", NOON, "--panoramic", "-o", tmp_path, "--width", 48, "--paths", "pov_sky",
-         "--python", "/usr/bin/python3", "-q"])
-    e = json.loads((tmp_path / "summary.json").read_text())["paths"]["pov_sky"]
-    print("panoramic pov_sky: mean %.4f %%, p95 %.4f %%, max %.4f %%" % (
-        100 * e["mean_rel_err"], 100 * e["p95_rel_err"], 100 * e["max_rel_err"]))
-    assert e["mean_rel_err"] <= 0.01
-    assert e["p95_rel_err"] <= 0.03
