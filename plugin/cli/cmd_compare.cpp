@@ -2,7 +2,9 @@
 // a user brings Airmass into Blender — the sky texture as World, the analytic node-tree volume
 // and the VDB volume, both lit by a Sun lamp — and write a report of the differences
 // (docs/compare.md). A fourth path, analytic_volume_ms, renders the analytic volume with
-// Cycles' volume and diffuse bounces on: multiple scattering on both sides.
+// Cycles' volume and diffuse bounces on: multiple scattering on both sides. Three more,
+// pov_sky, pov_analytic and pov_df3, render the scenes `airmass pov` writes in headless POV-Ray
+// 3.7 through the same child-process runner and report (docs/povray.md).
 //
 //   airmass compare (--preset NAME | SCENE.toml) -o DIR [--width W --height H --samples S
 //       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM --step KM

@@ -220,3 +220,14 @@ def test_panoramic_camera_orientation(airmass_bin, tmp_path):
     # Bilinear interpolation of unit vectors between texels 0.35 deg apart, stored as half floats
     # (2^-11): well under a tenth of a degree; a wrong axis is tens of degrees off.
     assert angle.max() < 0.1
+
+
+@pytest.mark.parametrize("args, fragment", [(["--pov-intervals", "0"], "--pov-intervals"),
+                                            (["--pov-samples", "-1"], "--pov-samples"),
+                                            (["--paths", "pov_sky,pov_nothing"], "--paths")])
+def test_bad_pov_options_stop_compare_before_anything(airmass_bin, tmp_path, args, fragment):
+    out = tmp_path / "out"
+    p = run([airmass_bin, "compare", NOON, "-o", out, "--width", 8, "--height", 5, "-q", *args], check=False)
+    assert p.returncode == 2, p.stderr
+    assert fragment in p.stderr
+    assert not out.exists()
