@@ -442,7 +442,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"analytic_volume_ms", o.seeds},
                     {"vdb_volume", o.seeds}, {"pov_sky", 1}, {"pov_analytic", 1}, {"pov_df3", 1}};
     job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
-                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}, {"pov_sky", 16},
+                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}, {"pov_sky", 0},
                       {"pov_analytic", 0}, {"pov_df3", 0}};
     job["errors"] = json::object();
     job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb", "rgb_dither"});
@@ -769,7 +769,11 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
                              {"runs", runs},
                              {"seconds", seconds}};
             if (info.medium_box_km) job["pov"][p]["medium_box_km"] = *info.medium_box_km;
-            job["samples"][p] = so.path == "sky" ? 16 : info.intervals;  // sky: the 4x4 grid per pixel
+            // Samples: the media intervals, or for the sky the rays per pixel (+R<n>: an n x n grid).
+            int samples = info.intervals;
+            for (const auto& f : info.povray_flags)
+                if (f.rfind("+R", 0) == 0) samples = std::stoi(f.substr(2)) * std::stoi(f.substr(2));
+            job["samples"][p] = samples;
             say(o.quiet, p + ": wrote " + p + ".pov (" + std::to_string(runs.size()) + " POV-Ray render(s) planned)");
             step_done(step, p, true, seconds);
         } catch (const Cancelled&) {

@@ -231,3 +231,25 @@ def test_bad_pov_options_stop_compare_before_anything(airmass_bin, tmp_path, arg
     assert p.returncode == 2, p.stderr
     assert fragment in p.stderr
     assert not out.exists()
+
+
+def test_povray_media_jitter_is_deterministic(tmp_path):
+    """Why the pov paths have one render and zero noise: POV-Ray 3.7 has no seed for its media
+    jitter — two renders of a jittered medium are bit-identical, while the jitter itself does
+    change the image (so it is active). Were this to fail, independent renders would be
+    possible and the noise column should come from them."""
+    (tmp_path / "m.pov").write_text(
+        "#version 3.7;\nglobal_settings { assumed_gamma 1.0 }\n"
+        "camera { location <0, 0, -5> look_at <0, 0, 0> }\n"
+        "light_source { <10, 10, -10> color rgb 1 media_interaction on media_attenuation on }\n"
+        "background { rgb 0 }\n"
+        "box { -1, 1 hollow pigment { rgbt 1 } interior { media { scattering { 4, rgb 0.5 }\n"
+        "  method 3 intervals 5 samples 3 jitter J } } }\n")
+    imgs = {}
+    for name, j in (("a", 0.8), ("b", 0.8), ("c", 0.0)):
+        run(["povray", "+Im.pov", f"+O{name}.exr", "+FE", "+W32", "+H32", "-D", "-V", "-GA", f"Declare=J={j}"],
+            cwd=tmp_path)
+        imgs[name] = read_exr(tmp_path / f"{name}.exr")
+    assert imgs["a"].max() > 0.1
+    assert np.array_equal(imgs["a"], imgs["b"])
+    assert np.abs(imgs["a"] - imgs["c"]).max() > 0.01 * imgs["c"].max()
