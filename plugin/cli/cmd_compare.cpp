@@ -635,7 +635,8 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         }
     }
     std::vector<json> constituents;
-    if (wants("analytic_volume") || wants("analytic_volume_ms") || wants("vdb_volume")) {
+    // (The pov media paths carry them too: the report's voxelisation estimate reads them.)
+    if (wants_any({"analytic_volume", "analytic_volume_ms", "vdb_volume", "pov_analytic", "pov_df3"})) {
         try {
             VdbOptions vo;
             vo.unit = LengthUnit::km;
