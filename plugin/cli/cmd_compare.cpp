@@ -2,7 +2,9 @@
 // a user brings Airmass into Blender — the sky texture as World, the analytic node-tree volume
 // and the VDB volume, both lit by a Sun lamp — and write a report of the differences
 // (docs/compare.md). A fourth path, analytic_volume_ms, renders the analytic volume with
-// Cycles' volume and diffuse bounces on: multiple scattering on both sides.
+// Cycles' volume and diffuse bounces on: multiple scattering on both sides. Three more,
+// pov_sky, pov_analytic and pov_df3, render the scenes `airmass pov` writes in headless POV-Ray
+// 3.7 through the same child-process runner and report (docs/povray.md).
 //
 //   airmass compare (--preset NAME | SCENE.toml) -o DIR [--width W --height H --samples S
 //       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM --step KM
@@ -66,6 +68,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "pov_scene.hpp"
 #include "render_options.hpp"
 
 namespace airmass::cli {
@@ -76,19 +79,34 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 // The comparison paths — the one list (job.json's plan carries it to blender_render.py, report.py
-// and the add-on): name, the native image it is compared with, its title in the report.
+// and the add-on): name, the native image it is compared with, its title in the report, and the
+// renderer that makes it: "blender" (compare/blender_render.py, which writes blender_<path>.json)
+// or "povray" (the scene of `airmass pov --path <path without pov_>`, rendered here; this
+// command writes povray_<path>.json). Both run as children of run_process.
 struct ComparePath {
     const char* name;
     const char* reference;
     const char* title;
+    const char* renderer;
 };
 const std::vector<ComparePath> kPathTable = {
-    {"sky_texture", "native_physical_box", "Sky texture as World background"},
-    {"analytic_volume", "native_matched", "Analytic (node-tree) volume lit by a Sun lamp"},
+    {"sky_texture", "native_physical_box", "Sky texture as World background", "blender"},
+    {"analytic_volume", "native_matched", "Analytic (node-tree) volume lit by a Sun lamp", "blender"},
     {"analytic_volume_ms", "native_matched_ms",
-     "Analytic volume with multiple scattering (Cycles volume and diffuse bounces)"},
-    {"vdb_volume", "native_matched_box", "VDB volume lit by a Sun lamp"},
+     "Analytic volume with multiple scattering (Cycles volume and diffuse bounces)", "blender"},
+    {"vdb_volume", "native_matched_box", "VDB volume lit by a Sun lamp", "blender"},
+    {"pov_sky", "native_physical_box", "POV-Ray: sky texture as sky_sphere", "povray"},
+    {"pov_analytic", "native_povray_matched", "POV-Ray: media with function-pattern densities, parallel sun light",
+     "povray"},
+    {"pov_df3", "native_povray_matched_box", "POV-Ray: media with df3 densities (the camera's box), parallel sun light",
+     "povray"},
 };
+const ComparePath& path_entry(const std::string& name) {
+    for (const auto& p : kPathTable)
+        if (name == p.name) return p;
+    throw std::logic_error("compare: no path " + name);
+}
+bool is_povray(const std::string& path) { return std::string(path_entry(path).renderer) == "povray"; }
 const std::vector<std::string> kPaths = [] {
     std::vector<std::string> v;
     for (const auto& p : kPathTable) v.emplace_back(p.name);
@@ -132,6 +150,9 @@ struct CompareOptions {
     double step_km = 1.0;
     int max_steps = 1024;
     std::string blender = "blender";
+    std::string povray = "povray";
+    std::optional<int> pov_intervals, pov_samples;  // media sampling [default: `airmass pov`'s rule]
+    bool pov_refine = true;  // a second render at 2x the intervals: the sampling error, measured
     std::string python;  // empty: the report runs in `blender`
     std::string scripts, addon;
     int threads = 0;
@@ -199,6 +220,7 @@ private:
 
 // The Cycles renders blender_render.py makes for `path` (its render_seeds), from the job.
 int planned_blender_renders(const nlohmann::json& job, const std::string& path) {
+    if (is_povray(path)) return int(job["pov"][path]["runs"].size());  // POV-Ray processes
     const int seeds = job["seeds"][path].get<int>();
     if (path == "sky_texture") return seeds;
     if (path == "analytic_volume_ms") return seeds * 3 * int(job["multiple"]["modes"].size());
@@ -248,7 +270,7 @@ fs::path find_scripts_dir(const std::string& given) {
 // when the forking thread ends, and this runs on the main thread, which lives until exit).
 // Processes Blender itself starts are not covered by the latter (they stay in the group).
 int run_process(const std::vector<std::string>& argv, const fs::path& log, double timeout_s, const CancelFlag& cancel,
-                bool& timed_out) {
+                bool& timed_out, const fs::path& cwd = {}) {
     timed_out = false;
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
     if (fd < 0) throw CliError("compare: cannot open log " + log.string());
@@ -272,6 +294,10 @@ int run_process(const std::vector<std::string>& argv, const fs::path& log, doubl
 #endif
         ::dup2(fd, 1);
         ::dup2(fd, 2);
+        if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) {
+            std::fprintf(stderr, "compare: cannot enter %s\n", cwd.c_str());
+            ::_exit(127);
+        }
         ::execvp(args[0], args.data());
         std::fprintf(stderr, "compare: cannot run %s\n", args[0]);
         ::_exit(127);
@@ -322,8 +348,9 @@ json native_entry(const Scene& scene, const std::string& file, double seconds, c
         // The Henyey–Greenstein g this image was rendered with (the one rule, henyey_greenstein_g):
         // the material's Volume Scatter gets the same (tests/blender/test_material_graph.py).
         json g = json::object();
-        for (const auto& c : renderer_matched_scene(scene).constituents) g[c.name] = c.phase.g;
+        for (const auto& c : renderer_matched_scene(scene, s.matched_renderer).constituents) g[c.name] = c.phase.g;
         j["henyey_greenstein_g"] = g;
+        j["matched_renderer"] = s.matched_renderer == MatchedRenderer::povray ? "povray" : "blender";
     }
     if (s.medium_box) {
         const auto& b = *s.medium_box;
@@ -352,8 +379,13 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     range("--max-steps", o.max_steps, 2, 65536);
     range("--ms-bounces", o.ms_bounces, 1, 1024);
     range("--timeout", o.timeout_s, 1, 1e6);
+    if (o.pov_intervals) range("--pov-intervals", *o.pov_intervals, 1, 100000);
+    if (o.pov_samples) range("--pov-samples", *o.pov_samples, 1, 100000);
     const std::vector<std::string> paths = parse_choices(o.paths, "--paths", kPaths);
     auto wants = [&](const char* p) { return std::find(paths.begin(), paths.end(), p) != paths.end(); };
+    auto wants_any = [&](std::initializer_list<const char*> ps) {
+        return std::any_of(ps.begin(), ps.end(), [&](const char* p) { return wants(p); });
+    };
     const fs::path scripts = find_scripts_dir(o.scripts);
     const fs::path addon = o.addon.empty() ? scripts.parent_path() / "addon" : fs::path(o.addon);
     const fs::path dir = fs::absolute(o.output);
@@ -369,15 +401,19 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     // The plan: every step of this run, in order (the progress events' index / total).
     {
         std::vector<std::string> steps{"native_physical"};
-        if (wants("sky_texture")) steps.push_back("native_physical_box");
+        if (wants_any({"sky_texture", "pov_sky"})) steps.push_back("native_physical_box");
         steps.push_back("native_hg_spectral");
         steps.push_back("native_matched");
         if (wants("analytic_volume_ms")) steps.push_back("native_matched_ms");
         if (wants("vdb_volume")) steps.push_back("native_matched_box");
+        if (wants_any({"pov_analytic", "pov_df3"})) steps.push_back("native_povray_matched");
+        if (wants("pov_df3")) steps.push_back("native_povray_matched_box");
         if (wants("sky_texture")) steps.push_back("sky_texture_input");
         if (wants("vdb_volume")) steps.push_back("vdb_export");
+        for (const auto& p : paths)
+            if (is_povray(p)) steps.push_back("pov_scene " + p);
         if (!o.no_blender) {
-            for (const auto& p : paths) steps.push_back("blender " + p);
+            for (const auto& p : paths) steps.push_back(std::string(path_entry(p).renderer) + " " + p);
             if (!o.no_report) steps.push_back("report");
         }
         events.set_steps(steps);
@@ -400,10 +436,14 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     job["paths_requested"] = paths;
     job["addon_dir"] = addon.string();
     job["blender_threads"] = o.threads;
+    // POV-Ray's media sampling is deterministic (3.7 seeds its jitter the same every run: two renders
+    // are bit-identical, docs/povray.md), so a pov path is one "seed"; its samples are the media
+    // intervals (set with the scene below).
     job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"analytic_volume_ms", o.seeds},
-                    {"vdb_volume", o.seeds}};
+                    {"vdb_volume", o.seeds}, {"pov_sky", 1}, {"pov_analytic", 1}, {"pov_df3", 1}};
     job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
-                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}};
+                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}, {"pov_sky", 0},
+                      {"pov_analytic", 0}, {"pov_df3", 0}};
     job["errors"] = json::object();
     job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb", "rgb_dither"});
     // analytic_volume_ms (blender_render.py): per channel one grey render of the whole medium,
@@ -421,7 +461,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     const double R = scene.planet.radius_m;
     const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
     std::optional<MediumBox> box;
-    if (wants("vdb_volume")) box = view_box(scene, cam);
+    if (wants_any({"vdb_volume", "pov_df3"})) box = view_box(scene, cam);  // `airmass pov --path df3` cuts the same
 
     json natives = json::object();
     auto native = [&](const std::string& name, RenderSettings s) {
@@ -463,7 +503,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         say(o.quiet, "native " + name + ": " + std::to_string(seconds) + " s");
     };
     native("native_physical", base);
-    if (wants("sky_texture")) {
+    if (wants_any({"sky_texture", "pov_sky"})) {
         // The sky texture path is rendered with Cycles' Box filter (the pixel's mean): a texture
         // of finite resolution cannot put the horizon's jump where a single ray per pixel finds
         // it, but it integrates to the right pixel mean (docs/compare.md).
@@ -485,9 +525,21 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             m.multiple_scattering = true;  // the default tables (multiple_scattering.hpp)
             native("native_matched_ms", m);
         }
-        if (box) {
-            s.medium_box = box;
-            native("native_matched_box", s);
+        if (box && wants("vdb_volume")) {
+            RenderSettings b = s;
+            b.medium_box = box;
+            native("native_matched_box", b);
+        }
+        // POV-Ray's media: the Rayleigh phase kept (scattering type 4), the rest as the HG of the
+        // one rule (type 5), three wavelengths lit by the sun's RGB irradiance (docs/povray.md).
+        if (wants_any({"pov_analytic", "pov_df3"})) {
+            RenderSettings m = s;
+            m.matched_renderer = MatchedRenderer::povray;
+            native("native_povray_matched", m);
+            if (wants("pov_df3")) {
+                m.medium_box = box;
+                native("native_povray_matched_box", m);
+            }
         }
     }
     job["native"] = natives;
@@ -583,7 +635,8 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         }
     }
     std::vector<json> constituents;
-    if (wants("analytic_volume") || wants("analytic_volume_ms") || wants("vdb_volume")) {
+    // (The pov media paths carry them too: the report's voxelisation estimate reads them.)
+    if (wants_any({"analytic_volume", "analytic_volume_ms", "vdb_volume", "pov_analytic", "pov_df3"})) {
         try {
             VdbOptions vo;
             vo.unit = LengthUnit::km;
@@ -656,17 +709,94 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         step_error("vdb_export", "vdb_volume", job["errors"]["vdb_volume"].get<std::string>());
         step_done("vdb_export", "vdb_volume", false, 0.0);
     }
+    // The POV-Ray scenes: `airmass pov`'s writer (write_pov_scene, the one code) for this camera,
+    // into DIR as <path>.pov with its inputs; the POV-Ray processes to run (one per split pass,
+    // and with --pov-refine the same at twice the media intervals, the sampling error measured).
+    // A scene the writer refuses (a df3 box over 65535 voxels, ...) is this path's error, named,
+    // before POV-Ray starts.
+    job["pov"] = json::object();
+    for (const auto& p : paths) {
+        if (!is_povray(p)) continue;
+        const std::string step = "pov_scene " + p;
+        events.emit(events.event("render_start", step, p));
+        try {
+            check_cancel();
+            PovSceneOptions so;
+            so.command = "compare --paths " + p;
+            so.path = p.substr(4);  // pov_sky -> sky
+            so.threads = o.threads;
+            so.progress_bar = bar_on;
+            if (so.path == "sky") {
+                so.sky_oversample = o.sky_oversample;
+            } else {
+                so.media_intervals = o.pov_intervals;
+                so.media_samples = o.pov_samples;
+            }
+            if (so.path == "df3") so.voxel_size_km = o.voxel_size_km;
+            const auto t0 = std::chrono::steady_clock::now();
+            const PovSceneInfo info = write_pov_scene(scene, cam, so, dir / (p + ".pov"), cancel);
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            json runs = json::array();
+            auto add_run = [&](int pass, int intervals, bool refined) {
+                const std::string out = p + (refined ? "_x2" : "") + "_pass" + std::to_string(pass) + ".exr";
+                std::vector<std::string> argv{o.povray, "+I" + p + ".pov", "+O" + out, "+FE",
+                                              "+W" + std::to_string(cam.width), "+H" + std::to_string(cam.height),
+                                              "-D", "-V"};
+                for (const auto& f : info.povray_flags) argv.push_back(f);
+                if (pass > 0) argv.push_back("Declare=Airmass_Pass=" + std::to_string(pass));
+                if (refined) argv.push_back("Declare=Airmass_MediaIntervals=" + std::to_string(intervals));
+                if (o.threads > 0) argv.push_back("+WT" + std::to_string(o.threads));
+                runs.push_back({{"argv", argv}, {"output", out}, {"pass", pass}, {"intervals", intervals},
+                                {"refined", refined}});
+            };
+            if (info.passes.empty()) {
+                add_run(0, 0, false);
+            } else {
+                for (int k : info.passes) add_run(k, info.intervals, false);
+                if (o.pov_refine)
+                    for (int k : info.passes) add_run(k, 2 * info.intervals, true);
+            }
+            json files = json::array();
+            for (const auto& f : info.written) files.push_back(fs::absolute(f).string());
+            job["pov"][p] = {{"scene", (dir / (p + ".pov")).string()},
+                             {"files", files},
+                             {"passes", info.passes},
+                             {"pass_constituents", info.pass_names},
+                             {"intervals", info.intervals},
+                             {"media_samples", info.media_samples},
+                             {"sky_width", info.sky_width},
+                             {"voxel_size_km", info.voxel_size_km},
+                             {"flags", info.povray_flags},
+                             {"runs", runs},
+                             {"seconds", seconds}};
+            if (info.medium_box_km) job["pov"][p]["medium_box_km"] = *info.medium_box_km;
+            // Samples: the media intervals, or for the sky the rays per pixel (+R<n>: an n x n grid).
+            int samples = info.intervals;
+            for (const auto& f : info.povray_flags)
+                if (f.rfind("+R", 0) == 0) samples = std::stoi(f.substr(2)) * std::stoi(f.substr(2));
+            job["samples"][p] = samples;
+            say(o.quiet, p + ": wrote " + p + ".pov (" + std::to_string(runs.size()) + " POV-Ray render(s) planned)");
+            step_done(step, p, true, seconds);
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::exception& ex) {
+            job["errors"][p] = std::string("POV-Ray scene: ") + ex.what();
+            step_error(step, p, job["errors"][p].get<std::string>());
+            step_done(step, p, false, 0.0);
+        }
+    }
     // The plan, for blender_render.py, report.py and the add-on: every path this CLI knows (the
     // one list: kPaths), those requested, the steps of the progress events, and how many Cycles
-    // renders each Blender path makes.
+    // renders each Blender path makes (and POV-Ray processes each POV-Ray path runs).
     {
-        json renders = json::object();
+        json renders = json::object(), pov_renders = json::object();
         for (const auto& p : paths)
-            if (!job["errors"].contains(p)) renders[p] = planned_blender_renders(job, p);
+            if (!job["errors"].contains(p)) (is_povray(p) ? pov_renders : renders)[p] = planned_blender_renders(job, p);
         json table = json::array();
         for (const auto& p : kPathTable)
-            table.push_back({{"name", p.name}, {"reference", p.reference}, {"title", p.title}});
-        job["plan"] = {{"all_paths", table}, {"paths", paths}, {"blender_renders", renders}};
+            table.push_back({{"name", p.name}, {"reference", p.reference}, {"title", p.title}, {"renderer", p.renderer}});
+        job["plan"] = {{"all_paths", table}, {"paths", paths}, {"blender_renders", renders},
+                       {"povray_renders", pov_renders}};
     }
     write_text(dir / "job.json", job.dump(2) + "\n");
     if (o.no_blender) {
@@ -675,42 +805,112 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         return;
     }
 
-    // ---- Blender --------------------------------------------------------------------------------
+    // ---- the renderers: Blender and POV-Ray --------------------------------------------------------
+    // One loop for both (kPathTable's renderer): each path is a list of child processes run by
+    // run_process (own process group, killed on Ctrl-C or timeout), its log <renderer>_<path>.log.
+    // Blender: one process running blender_render.py, which writes blender_<path>.json. POV-Ray:
+    // one process per split pass (and refined pass), from DIR (the scene's inputs are relative
+    // to it); povray_<path>.json, written here, lists the images to sum and their times.
     json blender_runs = json::object();
     for (const auto& p : paths) {
         check_cancel();
+        const std::string renderer = path_entry(p).renderer;
+        const bool pov = renderer == "povray";
+        const std::string step = renderer + " " + p;
         {
-            json e = events.event("render_start", "blender " + p, p);
-            e["renders"] = job["plan"]["blender_renders"].value(p, 0);
+            json e = events.event("render_start", step, p);
+            e["renders"] = job["plan"][pov ? "povray_renders" : "blender_renders"].value(p, 0);
             events.emit(e);
         }
         if (job["errors"].contains(p)) {
-            step_error("blender " + p, p, job["errors"][p].get<std::string>());
-            step_done("blender " + p, p, false, 0.0);
+            step_error(step, p, job["errors"][p].get<std::string>());
+            step_done(step, p, false, 0.0);
             continue;
         }
-        const fs::path log = dir / ("blender_" + p + ".log");
+        const fs::path log = dir / (renderer + "_" + p + ".log");
         fs::remove(log, ec);
-        say(o.quiet, "blender " + p + " (" + std::to_string(job["seeds"][p].get<int>()) + " seeds x " +
-                         std::to_string(job["samples"][p].get<int>()) + " samples) ...");
+        struct Run {
+            std::vector<std::string> argv;
+            fs::path cwd;
+        };
+        std::vector<Run> runs;
+        if (pov) {
+            for (const auto& r : job["pov"][p]["runs"]) runs.push_back({r["argv"].get<std::vector<std::string>>(), dir});
+            say(o.quiet, "povray " + p + " (" + std::to_string(runs.size()) + " render(s)) ...");
+        } else {
+            runs.push_back({{o.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
+                             (scripts / "blender_render.py").string(), "--", (dir / "job.json").string(), p},
+                            {}});
+            say(o.quiet, "blender " + p + " (" + std::to_string(job["seeds"][p].get<int>()) + " seeds x " +
+                             std::to_string(job["samples"][p].get<int>()) + " samples) ...");
+        }
         const auto t0 = std::chrono::steady_clock::now();
         bool timed_out = false;
-        const int rc = run_process({o.blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
-                                    (scripts / "blender_render.py").string(), "--", (dir / "job.json").string(), p},
-                                   log, o.timeout_s, cancel, timed_out);
-        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        check_cancel();
-        blender_runs[p] = {{"exit_status", rc}, {"wall_seconds", seconds}, {"log", log.filename().string()}};
-        if (rc != 0) {
-            job["errors"][p] = std::string("Blender ") + (timed_out ? "timed out" : "failed") + " (exit status " +
-                               std::to_string(rc) + "); last lines of " + log.filename().string() + ":\n" +
-                               tail_of(log, 12);
+        int rc = 0;
+        std::vector<double> run_seconds;
+        for (const auto& r : runs) {
+            const auto t1 = std::chrono::steady_clock::now();
+            rc = run_process(r.argv, log, o.timeout_s, cancel, timed_out, r.cwd);
+            run_seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+            check_cancel();
+            if (rc != 0) break;
         }
-        say(o.quiet, "blender " + p + ": " + (rc == 0 ? "ok" : "FAILED") + ", " + std::to_string(seconds) + " s");
-        if (rc != 0) step_error("blender " + p, p, job["errors"][p].get<std::string>());
-        step_done("blender " + p, p, rc == 0, seconds);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        blender_runs[p] = {{"exit_status", rc}, {"wall_seconds", seconds}, {"log", log.filename().string()},
+                           {"renderer", renderer}};
+        if (rc != 0) {
+            job["errors"][p] = std::string(pov ? "POV-Ray" : "Blender") + " " + (timed_out ? "timed out" : "failed") +
+                               " (exit status " + std::to_string(rc) + "); last lines of " +
+                               log.filename().string() + ":\n" + tail_of(log, 12);
+        } else if (pov) {
+            // What report.py reads for a POV-Ray path: per mode the images of each "seed" (one:
+            // POV-Ray is deterministic) to sum, the render times, and the refined renders.
+            const json& pj = job["pov"][p];
+            const bool media = !pj["passes"].empty();
+            const std::string mode = media ? "split" : "supersampled";
+            json images = json::array(), refined_images = json::array();
+            std::vector<double> secs{0.0}, refined_secs{0.0};
+            std::size_t i = 0;
+            for (const auto& r : pj["runs"]) {
+                (r["refined"].get<bool>() ? refined_images : images).push_back(r["output"]);
+                (r["refined"].get<bool>() ? refined_secs : secs)[0] += run_seconds[i++];
+            }
+            std::string version;
+            {
+                std::ifstream in(log);
+                // POV-Ray's banner: "Persistence of Vision(tm) Ray Tracer Version 3.7.0.10.unofficial (...".
+                const std::string tag = "Ray Tracer Version ";
+                for (std::string l; std::getline(in, l) && version.empty();)
+                    if (const auto k = l.find(tag); k != std::string::npos) {
+                        version = l.substr(k + tag.size());
+                        version = version.substr(0, version.find_first_of(" \t\r("));
+                    }
+            }
+            json info{{"renderer", "povray"},
+                      {"version", version},
+                      {"seeds", 1},
+                      {"samples", job["samples"][p]},
+                      {"modes", {mode}},
+                      {"images", {{mode, json::array({images})}}},
+                      {"render_seconds", {{mode, secs}}},
+                      {"build_seconds", pj["seconds"]},
+                      {"passes", pj["passes"]},
+                      {"pass_constituents", pj["pass_constituents"]},
+                      {"intervals", pj["intervals"]},
+                      {"media_samples", pj["media_samples"]},
+                      {"argv", pj["runs"][0]["argv"]},
+                      {"deterministic", true}};
+            if (!refined_images.empty())
+                info["refined"] = {{"intervals", 2 * pj["intervals"].get<int>()},
+                                   {"images", json::array({refined_images})},
+                                   {"render_seconds", refined_secs}};
+            write_text(dir / ("povray_" + p + ".json"), info.dump(2) + "\n");
+        }
+        say(o.quiet, step + ": " + (rc == 0 ? "ok" : "FAILED") + ", " + std::to_string(seconds) + " s");
+        if (rc != 0) step_error(step, p, job["errors"][p].get<std::string>());
+        step_done(step, p, rc == 0, seconds);
     }
-    job["blender_runs"] = blender_runs;
+    job["blender_runs"] = blender_runs;  // every renderer's processes (the key predates POV-Ray)
     write_text(dir / "job.json", job.dump(2) + "\n");
 
     // ---- report -------------------------------------------------------------------------------------
@@ -760,8 +960,8 @@ void run_compare(const CompareOptions& o) {
 
 void add_compare_command(CLI::App& app) {
     auto* cmd = app.add_subcommand(
-        "compare", "Render a camera natively and in headless Blender (sky texture, analytic and VDB volumes) and "
-                   "report the differences");
+        "compare", "Render a camera natively and in headless Blender (sky texture, analytic and VDB volumes) or "
+                   "POV-Ray (pov_sky, pov_analytic, pov_df3) and report the differences");
     auto o = std::make_shared<CompareOptions>();
     auto* scene_opt = cmd->add_option("scene", o->scene_path, "Scene file (TOML; docs/scene.md)");
     auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
@@ -775,8 +975,9 @@ void add_compare_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")->capture_default_str();
     cmd->add_option("--paths", o->paths,
-                    "Comma-separated subset of sky_texture,analytic_volume,analytic_volume_ms,vdb_volume "
-                    "(analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces on)")
+                    "Comma-separated subset of sky_texture,analytic_volume,analytic_volume_ms,vdb_volume,pov_sky,"
+                    "pov_analytic,pov_df3 (analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces "
+                    "on; pov_*: headless POV-Ray 3.7, docs/povray.md)")
         ->capture_default_str();
     cmd->add_option("--volume-modes", o->volume_modes,
                     "Blender volume renders: split (grey, one Volume Scatter per render, summed: unbiased in "
@@ -804,13 +1005,21 @@ void add_compare_command(CLI::App& app) {
                     "Blender executable: the renders, and the report (compare/report.py in its own Python, "
                     "numpy only) unless --python is given")
         ->capture_default_str();
+    cmd->add_option("--povray", o->povray, "POV-Ray 3.7 executable (the pov_* paths)")->capture_default_str();
+    cmd->add_option("--pov-intervals", o->pov_intervals,
+                    "pov_analytic / pov_df3: media intervals [default: `airmass pov`'s rule, docs/povray.md]");
+    cmd->add_option("--pov-samples", o->pov_samples, "pov_analytic / pov_df3: media samples (method 3) [default: 3]");
+    cmd->add_option("--pov-refine", o->pov_refine,
+                    "pov_analytic / pov_df3: also render at twice the intervals (POV-Ray is deterministic: this "
+                    "measures its sampling error)")
+        ->capture_default_str();
     cmd->add_option("--python", o->python,
                     "Run the report with this Python instead of in --blender (needs numpy and OpenImageIO; "
                     "matplotlib optional) [default: in --blender]");
     cmd->add_option("--scripts", o->scripts, "Folder with blender_render.py and report.py [default: found]");
     cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
     cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();
-    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender process")->capture_default_str();
+    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender or POV-Ray process")->capture_default_str();
     render_detail::add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
     cmd->add_flag("--no-blender", o->no_blender,

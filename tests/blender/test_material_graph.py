@@ -95,7 +95,10 @@ def check_events(lines, job):
     check(prog and all(0 < e["done"] <= e["of"] == job["camera"]["height"] for e in prog), "progress %r" % prog)
     plan = job["plan"]
     check([p["name"] for p in plan["all_paths"]] == ["sky_texture", "analytic_volume", "analytic_volume_ms",
-                                                     "vdb_volume"], "plan paths %r" % plan["all_paths"])
+                                                     "vdb_volume", "pov_sky", "pov_analytic", "pov_df3"],
+          "plan paths %r" % plan["all_paths"])
+    check([p["renderer"] for p in plan["all_paths"]] == ["blender"] * 4 + ["povray"] * 3,
+          "plan renderers %r" % plan["all_paths"])
     scatterers = sum(1 for c in job["constituents"] if max(c["scattering_rgb"]) > 0)
     modes = job["volume_modes"]
     want = job["seeds"]["analytic_volume"] * sum(3 * scatterers if m == "split" else 1 for m in modes)

@@ -105,8 +105,10 @@ def test_pov_sky_matches_the_native_box_filtered_image(airmass_bin, tmp_path):
     run([airmass_bin, "pov", src, "--path", "sky", "-o", scene, "--width", W, "--height", H, "-q"])
     text = scene.read_text()
     assert "sky_sphere" in text and "media" not in text.split("sky_sphere")[1]
-    # Anti-aliasing as the file's own command line says: every pixel the mean of a 4 x 4 grid.
-    pov = povray(scene, W, H, "+A0.0", "+AM1", "+R4", "-J")
+    # Anti-aliasing as the file's own command line says: every pixel the mean of a 9 x 9 grid.
+    flags = text.split("// Render from this folder:")[1].split("\n")[0].split()[-4:]
+    assert flags == ["+A0.0", "+AM1", "+R9", "-J"], flags
+    pov = povray(scene, W, H, *flags)
     native = tmp_path / "native.exr"
     run([airmass_bin, "render", src, "-o", native, "--width", W, "--height", H, "--pixel-filter", "box",
          "--multiple", "-q"])
