@@ -4,7 +4,7 @@
 //   airmass pov (--preset NAME | SCENE.toml) -o scene.pov [--path sky|analytic|df3
 //       --width W --height H --sky-width N --voxel-size KM --media-intervals N
 //       --media-samples N --sun-elevation DEG --sun-rotation DEG
-//       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
+//       --camera-position-km X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
 //       --threads N --quiet]
 //
 // Paths (the names `airmass compare` gives them, pov_<path>):
