@@ -4,7 +4,8 @@
 // full-quality image of the same sun.
 //
 //   bench_sky_session [--preset earth] [--width 1024] [--threads 2] [--suns 8]
-//                     [--preview-samples 4] [--preview-grid 64] [--preview-ms-grid 16]
+//                     [--preview-samples 16] [--preview-grid 64] [--preview-ms-grid 16] [--preview-ms-samples 32]
+//                     [--profile full|preview]  (only a session and --suns renders: for perf)
 //
 // Prints wall-clock times (std::chrono::steady_clock, median over the suns or repeats):
 //   one-shot airmass_render_sky (the baseline: atmosphere, tables, image on every call);
@@ -106,7 +107,8 @@ Error image_error(const std::vector<float>& a, const std::vector<float>& ref, in
 
 int main(int argc, char** argv) {
     std::string preset = "earth";
-    int width = 1024, threads = 2, suns = 8, pv_samples = 4, pv_grid = 64, pv_ms_grid = 16;
+    std::string profile;  // "full" or "preview": only a session and --suns renders of that quality (for perf)
+    int width = 1024, threads = 2, suns = 8, pv_samples = 16, pv_grid = 64, pv_ms_grid = 16, pv_ms_samples = 32;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i];
         const char* v = argv[i + 1];
@@ -117,6 +119,8 @@ int main(int argc, char** argv) {
         else if (k == "--preview-samples") pv_samples = std::atoi(v);
         else if (k == "--preview-grid") pv_grid = std::atoi(v);
         else if (k == "--preview-ms-grid") pv_ms_grid = std::atoi(v);
+        else if (k == "--preview-ms-samples") pv_ms_samples = std::atoi(v);
+        else if (k == "--profile") profile = v;
         else {
             std::fprintf(stderr, "bench_sky_session: unknown option %s\n", k.c_str());
             return 2;
@@ -140,15 +144,34 @@ int main(int argc, char** argv) {
     preview.view_samples = pv_samples;
     preview.grid = pv_grid;
     preview.multiple_grid = pv_ms_grid;
+    preview.multiple_samples = pv_ms_samples;
 
     std::printf("bench_sky_session: preset %s, %d x %d, %d threads, %d sun directions, C ABI %d\n", preset.c_str(),
                 width, H, threads, suns, airmass_abi_version());
     std::printf("full quality: the library's defaults (view samples %d, grid %d = auto, multiple-scattering view %d)\n",
                 full.view_samples, full.grid, full.multiple_grid);
-    std::printf("preview:      view samples %d, grid %d, multiple-scattering view %d\n\n", pv_samples, pv_grid,
-                pv_ms_grid);
+    std::printf("preview:      view samples %d, grid %d, multiple-scattering view %d, %d intervals per ray\n\n",
+                pv_samples, pv_grid, pv_ms_grid, pv_ms_samples);
 
     std::vector<float> a(n), b(n);
+    if (!profile.empty()) {
+        airmass_sky_session* session = nullptr;
+        require(airmass_sky_session_create(&spec, &full, nullptr, &session, msg, sizeof msg), "session_create", msg);
+        airmass_sky_view view;
+        view.struct_size = sizeof view;
+        airmass_sky_view_init(&view);
+        const double c0 = cpu_now();
+        for (int k = 0; k < suns; ++k) {
+            view.sun_elevation_deg = -4.0 + std::fmod(3.7 * k, 74.0);
+            view.sun_rotation_deg = 13.0 + 47.0 * k;
+            require(airmass_sky_session_render(session, &view, profile == "full" ? &full : &preview, a.data(), n,
+                                               nullptr, nullptr, msg, sizeof msg),
+                    "session_render", msg);
+        }
+        std::printf("%s: %.4f s CPU per sun\n", profile.c_str(), (cpu_now() - c0) / suns);
+        airmass_sky_session_free(session);
+        return 0;
+    }
     // Sun directions a drag might visit: elevations from −4° to 70°, rotations all round.
     std::vector<std::pair<double, double>> sun;
     for (int k = 0; k < suns; ++k) sun.emplace_back(-4.0 + 74.0 * k / std::max(1, suns - 1), 13.0 + 47.0 * k);

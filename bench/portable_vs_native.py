@@ -33,7 +33,8 @@ class SkyOptions(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("width", ctypes.c_int32), ("height", ctypes.c_int32),
                 ("view_samples", ctypes.c_int32), ("chapman", ctypes.c_char_p), ("sun_disc", ctypes.c_int32),
                 ("upper_only", ctypes.c_int32), ("threads", ctypes.c_int32), ("grid", ctypes.c_int32),
-                ("multiple_scattering", ctypes.c_int32), ("multiple_grid", ctypes.c_int32)]
+                ("multiple_scattering", ctypes.c_int32), ("multiple_grid", ctypes.c_int32),
+                ("multiple_samples", ctypes.c_int32)]
 
 
 def load(path):

@@ -121,6 +121,7 @@ class SkyOptions(ctypes.Structure):
         ("grid", ctypes.c_int32),
         ("multiple_scattering", ctypes.c_int32),
         ("multiple_grid", ctypes.c_int32),
+        ("multiple_samples", ctypes.c_int32),
     ]
 
 
@@ -551,7 +552,7 @@ def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_
 
 
 def _sky_options(lib, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True, upper_only=False,
-                 threads=0, grid=None, multiple_scattering=True, multiple_grid=None):
+                 threads=0, grid=None, multiple_scattering=True, multiple_grid=None, multiple_samples=None):
     """(SkyOptions, keepalive) from keyword arguments (None: the library's default)."""
     opts = SkyOptions()
     _init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
@@ -569,6 +570,8 @@ def _sky_options(lib, width=1024, height=0, view_samples=None, chapman=None, sun
     opts.multiple_scattering = 1 if multiple_scattering else 0
     if multiple_grid is not None:
         opts.multiple_grid = int(multiple_grid)
+    if multiple_samples is not None:
+        opts.multiple_samples = int(multiple_samples)
     return opts, chapman_b
 
 
@@ -588,7 +591,7 @@ class SkySession:
     its multiple-scattering tables computed once, here (a long call: `progress` reports and
     cancels it); render() then pays only for the sun direction. `options`: render_sky's keyword
     arguments (width, height, view_samples, chapman, sun_disc, upper_only, threads, grid,
-    multiple_scattering, multiple_grid) — chapman and multiple_scattering are fixed for the
+    multiple_scattering, multiple_grid, multiple_samples) — chapman and multiple_scattering are fixed for the
     session, the rest are render()'s defaults. Thread-safe: renders may run on several threads
     at once. close() (or the garbage collector) frees it."""
 

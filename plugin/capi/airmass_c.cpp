@@ -152,6 +152,7 @@ airmass::SkySettings sky_settings_from(const airmass_sky_options& o) {
     settings.grid = o.grid;
     settings.multiple_scattering = o.multiple_scattering != 0;
     settings.multiple_grid = o.multiple_grid;
+    settings.multiple_samples = o.multiple_samples;
     airmass::validate(settings);
     return settings;
 }
@@ -326,6 +327,7 @@ int32_t airmass_sky_options_init(airmass_sky_options* options) {
     options->grid = d.grid;
     options->multiple_scattering = d.multiple_scattering ? 1 : 0;
     options->multiple_grid = d.multiple_grid;
+    options->multiple_samples = d.multiple_samples;
     return AIRMASS_OK;
 }
 

@@ -53,7 +53,8 @@ extern "C" {
                                     5: airmass_solar_position (added; nothing else changed)
                                     6: sky sessions (airmass_sky_session_*: the atmosphere and its
                                        multiple-scattering tables made once, a sky per sun
-                                       direction); airmass_sky_options gains multiple_grid */
+                                       direction); airmass_sky_options gains multiple_grid and
+                                       multiple_samples (its size differs from ABI 5's) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -170,6 +171,8 @@ typedef struct airmass_sky_options {
     int32_t multiple_grid;  /* the multiple-scattering view's azimuth intervals (sky.hpp
                                SkySettings::multiple_grid, default 32): 0 integrates every ray,
                                else in [2, 16384] */
+    int32_t multiple_samples; /* quadrature intervals along each multiple-scattering view ray
+                               (SkySettings::multiple_samples, default 32), [1, 100000] */
 } airmass_sky_options;
 
 AIRMASS_C_API int32_t airmass_sky_options_init(airmass_sky_options* options); /* struct_size set first */
@@ -199,7 +202,7 @@ AIRMASS_C_API int32_t airmass_render_sky(const airmass_scene_spec* spec, const a
  *      observer into the caller's buffer, exactly as airmass_render_sky would render it for that
  *      spec with the sun and altitude overridden (same pixels). `options` may be NULL (the
  *      session's) or differ from them in width, height, view_samples, sun_disc, upper_only,
- *      threads, grid and multiple_grid (a preview quality); a different chapman or
+ *      threads, grid, multiple_grid and multiple_samples (a preview quality); a different chapman or
  *      multiple_scattering is AIRMASS_SETTINGS_ERROR naming the field (make another session).
  *   3. airmass_sky_session_free(session).
  * Thread-safe: a session is immutable after create; renders of one session may run at once on
