@@ -242,12 +242,24 @@ def _load_pre(_dummy=None):
     reset()
 
 
+@bpy.app.handlers.persistent
+def _load_post(_dummy=None):
+    """A file saved with Live Preview on resumes it."""
+    scene = bpy.context.scene
+    s = getattr(scene, "airmass", None) if scene is not None else None
+    if s is not None and s.live_preview and not bpy.app.background and not bpy.app.timers.is_registered(_timer):
+        bpy.app.timers.register(_timer, first_interval=0.0)
+
+
 def register():
     if _load_pre not in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.append(_load_pre)
+    if _load_post not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_load_post)
 
 
 def unregister():
-    if _load_pre in bpy.app.handlers.load_pre:
-        bpy.app.handlers.load_pre.remove(_load_pre)
+    for handlers, fn in ((bpy.app.handlers.load_pre, _load_pre), (bpy.app.handlers.load_post, _load_post)):
+        if fn in handlers:
+            handlers.remove(fn)
     reset()
