@@ -33,7 +33,8 @@ class SkyOptions(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("width", ctypes.c_int32), ("height", ctypes.c_int32),
                 ("view_samples", ctypes.c_int32), ("chapman", ctypes.c_char_p), ("sun_disc", ctypes.c_int32),
                 ("upper_only", ctypes.c_int32), ("threads", ctypes.c_int32), ("grid", ctypes.c_int32),
-                ("multiple_scattering", ctypes.c_int32)]
+                ("multiple_scattering", ctypes.c_int32), ("multiple_grid", ctypes.c_int32),
+                ("multiple_samples", ctypes.c_int32)]
 
 
 def load(path):
@@ -58,7 +59,7 @@ def build_info(lib):
 
 def render(lib, width, threads, multiple=True):
     spec = SceneSpec()
-    spec.struct_size = ctypes.sizeof(spec)  # C ABI 4: the host's size, refused if stale
+    spec.struct_size = ctypes.sizeof(spec)  # C ABI 4+ (this mirror: ABI 6): the host's size, refused if stale
     if lib.airmass_scene_spec_init(ctypes.byref(spec)) != 0:
         sys.exit("airmass_scene_spec_init refused struct_size %d: this mirror is stale" % spec.struct_size)
     spec.preset = b"earth"

@@ -298,6 +298,25 @@ TEST(SingleScattering, BatchEqualsSingle) {
     }
 }
 
+TEST(SingleScattering, ViewTransmittanceAloneEqualsTheFullIntegral) {
+    // view_transmittance_batch (the sky's row pass and the multiple-scattering view) gives the
+    // very T single scattering gives — sky, horizon, ground, from 10 km and from orbit, where a
+    // ray misses the atmosphere (T = 1) — without integrating the in-scatter.
+    const Atmosphere atm = compile_atmosphere(earth_like(), kWavelengths);
+    const Vec3<double> sun = direction_from_zenith_azimuth_deg<double>(70.0, 40.0);
+    std::vector<Vec3<double>> dirs;
+    for (double z : {0.0, 30.0, 89.0, 90.0, 90.2, 91.0, 150.0, 180.0})
+        dirs.push_back(direction_from_zenith_azimuth_deg<double>(z, 25.0));
+    for (double alt : {0.0, 500.0, 10e3, 400e3}) {
+        std::vector<double> T(dirs.size() * 3), T2(dirs.size() * 3), R(T.size()), M(T.size()), L(T.size());
+        single_scattering_batch(atm, alt, sun, dirs, {T, R, M, L});
+        view_transmittance_batch(atm, alt, dirs, T2);
+        for (std::size_t i = 0; i < T.size(); ++i) EXPECT_EQ(T2[i], T[i]) << "altitude " << alt << " element " << i;
+    }
+    std::vector<double> short_out(2);
+    EXPECT_THROW(view_transmittance_batch(atm, 0.0, dirs, short_out), std::invalid_argument);
+}
+
 TEST(SingleScattering, OnlyDeclaredConstituentsContribute) {
     Scene s = earth_like();
     s.constituents.resize(1);  // Rayleigh only

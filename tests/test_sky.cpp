@@ -13,6 +13,8 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
@@ -385,6 +387,68 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
 }
 
 // ---- files -------------------------------------------------------------------------------
+
+TEST(SkySessionTest, EachSunEqualsTheOneShotRenderAndTheTablesAreMadeOnce) {
+    // One session (atmosphere and multiple-scattering tables once), several suns and observers:
+    // each image equals render_sky of the scene with that sun, value for value — grid and
+    // per-pixel paths, with multiple scattering (through tables that are computed once) — and
+    // the session's tables are the very object every render uses (no recompute).
+    Scene scene = earth();
+    use_rgb(scene);
+    SkySettings s = small(64, 32);
+    s.multiple_scattering = true;
+    s.multiple.table = {6, 16, 12, 6};  // small tables: the check is about reuse, not accuracy
+    std::atomic<std::size_t> table_units{0};
+    RenderHooks hooks;
+    hooks.work_done = [&](std::size_t n, std::size_t) { table_units += n; };
+    const SkySession session(scene, s, hooks);
+    ASSERT_NE(session.tables(), nullptr);
+    EXPECT_EQ(table_units.load(), 1000u);
+    const MultipleScattering* tables = session.tables().get();
+    for (const auto& [e, r, alt, grid] : std::vector<std::tuple<double, double, double, int>>{
+             {20.0, 33.0, 0.0, 0}, {-4.0, 250.0, 0.0, 0}, {60.0, 90.0, 10e3, 16}, {5.0, 170.0, 2.0, 16}}) {
+        Scene one = scene;
+        one.sun.elevation_deg = e;
+        one.sun.azimuth_deg = r;
+        one.observer.altitude_m = alt;
+        SkySettings si = s;
+        si.grid = grid;
+        const FloatImage want = render_sky(one, si, {}, tables);
+        const FloatImage got = session.render(sun_direction(e, r), alt, si);
+        ASSERT_EQ(got.pixels.size(), want.pixels.size());
+        std::size_t differ = 0;
+        for (std::size_t i = 0; i < got.pixels.size(); ++i) differ += got.pixels[i] != want.pixels[i];
+        EXPECT_EQ(differ, 0u) << "sun " << e << "/" << r << " altitude " << alt << " grid " << grid;
+        EXPECT_EQ(session.tables().get(), tables);
+    }
+    // Settings the atmosphere or the tables depend on are refused by name; the rest may change.
+    SkySettings other = s;
+    other.chapman = ChapmanMethod::exact;
+    EXPECT_THROW(
+        {
+            try {
+                (void)session.render(sun_direction(20, 0), 0.0, other);
+            } catch (const SkyError& e) {
+                EXPECT_NE(std::string(e.what()).find("chapman"), std::string::npos) << e.what();
+                throw;
+            }
+        },
+        SkyError);
+    other = s;
+    other.multiple.table.altitude = 8;
+    EXPECT_THROW((void)session.render(sun_direction(20, 0), 0.0, other), SkyError);
+    other = s;
+    other.multiple_scattering = false;
+    EXPECT_THROW((void)session.render(sun_direction(20, 0), 0.0, other), SkyError);
+    EXPECT_THROW((void)session.render({0.0, 0.0, 2.0}, 0.0), SkyError);           // not a unit vector
+    EXPECT_THROW((void)session.render(sun_direction(20, 0), -1.0), SkyError);     // below the ground
+    other = s;
+    other.width = 32;
+    other.height = 16;
+    other.view_samples = 4;
+    other.multiple_grid = 8;
+    EXPECT_EQ(session.render(sun_direction(20, 0), 0.0, other).width, 32);
+}
 
 TEST(SkyFiles, MetadataAndPixelsSurviveTheEXR) {
     const fs::path dir = temp_dir("meta");

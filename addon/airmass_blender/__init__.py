@@ -26,7 +26,7 @@ bl_info = {
 if "bpy" in locals():
     import importlib
 
-    for _m in (compat, native, properties, jobs, world, sun, animation, vdb_host, volume, compare, operators, ui):  # noqa: F821
+    for _m in (compat, native, properties, jobs, world, sun, live, animation, vdb_host, volume, compare, operators, ui):  # noqa: F821
         importlib.reload(_m)
 
 import bpy  # noqa: E402,F401
@@ -37,6 +37,7 @@ from . import properties  # noqa: E402
 from . import jobs  # noqa: E402,F401
 from . import world  # noqa: E402,F401
 from . import sun  # noqa: E402
+from . import live  # noqa: E402
 from . import animation  # noqa: E402,F401
 from . import vdb_host  # noqa: E402,F401
 from . import volume  # noqa: E402,F401
@@ -44,7 +45,7 @@ from . import compare  # noqa: E402,F401
 from . import operators  # noqa: E402
 from . import ui  # noqa: E402
 
-_MODULES = (properties, operators, ui, sun)
+_MODULES = (properties, operators, ui, sun, live)
 
 
 def register():

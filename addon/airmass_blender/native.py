@@ -4,7 +4,7 @@ Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and fr
 plain Python tests. The library is looked up next to this file (the add-on zip bundles
 it: libairmass_c.so on Linux, airmass_c.dll on Windows) unless the environment variable
 AIRMASS_C_LIBRARY names another file. The library has no shared dependencies beyond the
-C/C++ runtime (C ABI 5: it writes no files, the host stores what it returns; every struct's
+C/C++ runtime (C ABI 6: it writes no files, the host stores what it returns; every struct's
 struct_size is set here from ctypes.sizeof of its mirror, and the library refuses another size).
 
 Every wrapper raises NativeError (with the library's status and message) on failure, so
@@ -18,7 +18,7 @@ import os
 import sys
 import threading
 
-ABI_VERSION = 5
+ABI_VERSION = 6
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 # File name of the library per platform (sys.platform prefix → name). The add-on zip carries
 # the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
@@ -120,6 +120,17 @@ class SkyOptions(ctypes.Structure):
         ("threads", ctypes.c_int32),
         ("grid", ctypes.c_int32),
         ("multiple_scattering", ctypes.c_int32),
+        ("multiple_grid", ctypes.c_int32),
+        ("multiple_samples", ctypes.c_int32),
+    ]
+
+
+class SkyView(ctypes.Structure):
+    _fields_ = [
+        ("struct_size", ctypes.c_uint32),
+        ("sun_elevation_deg", ctypes.c_double),
+        ("sun_rotation_deg", ctypes.c_double),
+        ("altitude_m", ctypes.c_double),
     ]
 
 
@@ -197,6 +208,14 @@ _SIGNATURES = {
     "airmass_render_sky": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
                                             ctypes.POINTER(ctypes.c_float), _SIZE, ctypes.POINTER(Job), _OUT,
                                             ctypes.c_void_p, _SIZE]),
+    "airmass_sky_view_init": (ctypes.c_int32, [ctypes.POINTER(SkyView)]),
+    "airmass_sky_session_create": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(SkyOptions),
+                                                    ctypes.POINTER(Job), ctypes.POINTER(ctypes.c_void_p),
+                                                    ctypes.c_void_p, _SIZE]),
+    "airmass_sky_session_render": (ctypes.c_int32, [ctypes.c_void_p, ctypes.POINTER(SkyView),
+                                                    ctypes.POINTER(SkyOptions), ctypes.POINTER(ctypes.c_float), _SIZE,
+                                                    ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_sky_session_free": (None, [ctypes.c_void_p]),
     "airmass_sun_light_at_observer": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.c_char_p,
                                                        ctypes.POINTER(SunLight), ctypes.c_void_p, _SIZE]),
     "airmass_solar_query_init": (ctypes.c_int32, [ctypes.POINTER(SolarQuery)]),
@@ -510,30 +529,12 @@ def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_
     units, row 0 = the TOP row (straight up; Blender's image rows start at the bottom, so a
     host flips), Blender's equirectangular convention. metadata: {"airmass:version": ...,
     ...} — the strings an EXR of this sky would carry. Raises NativeError (also on cancel)."""
-    import numpy as np  # every Blender bundles numpy; imported here so the rest needs none
 
     lib = library()
     c_spec, keep = spec._to_c(lib)
-    opts = SkyOptions()
-    _init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
-    opts.width = int(width)
-    opts.height = int(height)
-    if view_samples is not None:
-        opts.view_samples = int(view_samples)
-    chapman_b = _bytes(chapman) if chapman else None
-    opts.chapman = chapman_b
-    opts.sun_disc = 1 if sun_disc else 0
-    opts.upper_only = 1 if upper_only else 0
-    opts.threads = int(threads)
-    if grid is not None:
-        opts.grid = int(grid)
-    opts.multiple_scattering = 1 if multiple_scattering else 0
-    w = max(0, int(width))
-    h = sky_height(width, height) if w > 0 else 0
-    # A width the library refuses still needs a valid pointer: it reports the width first.
-    pixels = np.zeros((max(1, h), max(1, w), 4), dtype=np.float32) if w * h == 0 else \
-        np.empty((h, w, 4), dtype=np.float32)
-    count = w * h * 4
+    opts, chapman_b = _sky_options(lib, width, height, view_samples, chapman, sun_disc, upper_only, threads, grid,
+                                   multiple_scattering)
+    pixels, count = _sky_buffer(width, height)
     buf = _message_buffer()
     meta = ctypes.c_void_p()
     job_ptr, fn = None, None
@@ -548,6 +549,126 @@ def render_sky(spec, width=1024, height=0, view_samples=None, chapman=None, sun_
     _check(lib, status, buf)
     metadata = json.loads(text) if text else {}
     return pixels, {str(k): str(v) for k, v in metadata.items()}
+
+
+def _sky_options(lib, width=1024, height=0, view_samples=None, chapman=None, sun_disc=True, upper_only=False,
+                 threads=0, grid=None, multiple_scattering=True, multiple_grid=None, multiple_samples=None):
+    """(SkyOptions, keepalive) from keyword arguments (None: the library's default)."""
+    opts = SkyOptions()
+    _init_struct(lib.airmass_sky_options_init, opts, "airmass_sky_options")
+    opts.width = int(width)
+    opts.height = int(height)
+    if view_samples is not None:
+        opts.view_samples = int(view_samples)
+    chapman_b = _bytes(chapman) if chapman else None
+    opts.chapman = chapman_b
+    opts.sun_disc = 1 if sun_disc else 0
+    opts.upper_only = 1 if upper_only else 0
+    opts.threads = int(threads)
+    if grid is not None:
+        opts.grid = int(grid)
+    opts.multiple_scattering = 1 if multiple_scattering else 0
+    if multiple_grid is not None:
+        opts.multiple_grid = int(multiple_grid)
+    if multiple_samples is not None:
+        opts.multiple_samples = int(multiple_samples)
+    return opts, chapman_b
+
+
+def _sky_buffer(width, height):
+    """(numpy float32 array (h, w, 4), float count) for a sky of width × height (0: width / 2)."""
+    import numpy as np
+    w = max(0, int(width))
+    h = sky_height(width, height) if w > 0 else 0
+    # A width the library refuses still needs a valid pointer: it reports the width first.
+    pixels = np.zeros((max(1, h), max(1, w), 4), dtype=np.float32) if w * h == 0 else \
+        np.empty((h, w, 4), dtype=np.float32)
+    return pixels, w * h * 4
+
+
+class SkySession:
+    """One atmosphere, many suns (airmass_sky_session_*, C ABI 6): the atmosphere is compiled and
+    its multiple-scattering tables computed once, here (a long call: `progress` reports and
+    cancels it); render() then pays only for the sun direction. `options`: render_sky's keyword
+    arguments (width, height, view_samples, chapman, sun_disc, upper_only, threads, grid,
+    multiple_scattering, multiple_grid, multiple_samples) — chapman and multiple_scattering are fixed for the
+    session, the rest are render()'s defaults. Thread-safe: renders may run on several threads
+    at once. close() (or the garbage collector) frees it."""
+
+    def __init__(self, spec, progress=None, progress_range=(0.0, 1.0), **options):
+        self._lib = lib = library()
+        self._handle = None
+        self.options = dict(options)
+        c_spec, keep = spec._to_c(lib)
+        opts, chapman_b = _sky_options(lib, **options)
+        handle = ctypes.c_void_p()
+        buf = _message_buffer()
+        job_ptr, fn = None, None
+        if progress is not None:
+            job, fn = progress._job(*progress_range)
+            job_ptr = ctypes.byref(job)
+        status = lib.airmass_sky_session_create(ctypes.byref(c_spec), ctypes.byref(opts), job_ptr,
+                                                ctypes.byref(handle), buf, _MESSAGE_SIZE)
+        del keep, fn, chapman_b
+        _check(lib, status, buf)
+        self._handle = handle.value
+
+    def render(self, sun_elevation_deg=None, sun_rotation_deg=None, altitude_m=None, progress=None,
+               progress_range=(0.0, 1.0), metadata=False, out=None, **options):
+        """The sky for this sun and observer (None: the session's scene values), as render_sky
+        returns it: (pixels, metadata) — pixels (height, width, 4) float32, row 0 the zenith.
+        `options` override the session's (a preview quality: width, view_samples, grid,
+        multiple_grid, ...). `out`: an array of that shape to fill instead of a new one."""
+        if not self._handle:
+            raise NativeError(INVALID_ARGUMENT, "sky session: closed")
+        lib = self._lib
+        merged = dict(self.options)
+        merged.update(options)
+        opts, chapman_b = _sky_options(lib, **merged)
+        if out is None:
+            pixels, count = _sky_buffer(merged.get("width", 1024), merged.get("height", 0))
+        else:
+            pixels = out
+            count = out.size
+            h = sky_height(merged.get("width", 1024), merged.get("height", 0))
+            if out.dtype.name != "float32" or not out.flags["C_CONTIGUOUS"] or \
+                    out.shape != (h, int(merged.get("width", 1024)), 4):
+                raise ValueError("out: a C-contiguous float32 array of shape (%d, %d, 4), not %s %s"
+                                 % (h, int(merged.get("width", 1024)), out.dtype, out.shape))
+        view = SkyView()
+        _init_struct(lib.airmass_sky_view_init, view, "airmass_sky_view")
+        if sun_elevation_deg is not None:
+            view.sun_elevation_deg = float(sun_elevation_deg)
+        if sun_rotation_deg is not None:
+            view.sun_rotation_deg = float(sun_rotation_deg)
+        if altitude_m is not None:
+            view.altitude_m = float(altitude_m)
+        buf = _message_buffer()
+        meta = ctypes.c_void_p()
+        job_ptr, fn = None, None
+        if progress is not None:
+            job, fn = progress._job(*progress_range)
+            job_ptr = ctypes.byref(job)
+        status = lib.airmass_sky_session_render(self._handle, ctypes.byref(view), ctypes.byref(opts),
+                                                pixels.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), count,
+                                                job_ptr, ctypes.byref(meta) if metadata else None, buf,
+                                                _MESSAGE_SIZE)
+        del fn, chapman_b
+        text = _take_string(lib, meta) if metadata else ""
+        _check(lib, status, buf)
+        info = json.loads(text) if text else {}
+        return pixels, {str(k): str(v) for k, v in info.items()}
+
+    def close(self):
+        if self._handle:
+            self._lib.airmass_sky_session_free(self._handle)
+            self._handle = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
 
 
 def sun_light(spec, chapman=None):

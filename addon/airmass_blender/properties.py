@@ -81,6 +81,11 @@ def _scene_changed(self, context):
         refresh_constituents(self)
 
 
+def _live_preview_changed(self, context):
+    from . import live  # live.py imports this module: imported here, not at the top
+    live.live_preview_changed(self, context)
+
+
 class _Guard:
     """Re-entrancy guard for update callbacks that write other properties."""
     active = False
@@ -216,6 +221,13 @@ class AirmassSettings(bpy.types.PropertyGroup):
         name="Sun Disc", default=True,
         description="Put the solar disc into the sky texture. Turn off when a Sun lamp gives the direct sunlight, "
                     "or the sun is counted twice")
+    live_preview: BoolProperty(
+        name="Live Preview", default=False, update=lambda self, context: _live_preview_changed(self, context),
+        description="While the sun moves (Sun Elevation / Sun Rotation, or the Sun lamp with Live Sync), re-render "
+                    "the World's sky at a preview quality for the latest position; the full-quality sky (these "
+                    "settings) when the sun has rested for 0.3 s. The atmosphere's tables are made once")
+    live_status: StringProperty(name="Live Status", default="",
+                                description="The live preview's last problem, if any (read only)")
     sky_strength: FloatProperty(
         name="Strength", default=1.0, min=0.0, soft_max=10.0,
         description="World Background strength. 1 keeps Airmass' units (those of Blender's Nishita sky)")

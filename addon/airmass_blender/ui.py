@@ -72,6 +72,9 @@ class AIRMASS_PT_world(AirmassWorldPanel, bpy.types.Panel):
         col.enabled = ok
         col.scale_y = 1.3
         col.operator("airmass.generate_sky", icon="WORLD")
+        col.prop(s, "live_preview")
+        if s.live_status:
+            col.label(text=s.live_status, icon="ERROR")
         row = col.row(align=True)
         row.operator("airmass.sun_sync", text="Sun → Lamp", icon="LIGHT_SUN").direction = "TO_LAMP"
         row.operator("airmass.sun_sync", text="Lamp → Sun", icon="IMPORT").direction = "FROM_LAMP"

@@ -14,6 +14,8 @@
 
 #include "airmass/simd.hpp"
 
+#include <memory>
+
 
 namespace airmass::capi {
 
@@ -138,7 +140,68 @@ airmass::ChapmanMethod chapman_from(const char* name, airmass::ChapmanMethod fal
     return *m;
 }
 
+airmass::SkySettings sky_settings_from(const airmass_sky_options& o) {
+    airmass::SkySettings settings;
+    settings.width = o.width;
+    settings.height = o.height > 0 ? o.height : std::max(2, o.width / 2);
+    settings.view_samples = o.view_samples;
+    settings.chapman = chapman_from(o.chapman, settings.chapman, "sky_options.chapman");
+    settings.sun_disc = o.sun_disc != 0;
+    settings.region = o.upper_only ? airmass::SkyRegion::upper : airmass::SkyRegion::full;
+    settings.threads = o.threads;
+    settings.grid = o.grid;
+    settings.multiple_scattering = o.multiple_scattering != 0;
+    settings.multiple_grid = o.multiple_grid;
+    settings.multiple_samples = o.multiple_samples;
+    airmass::validate(settings);
+    return settings;
+}
+
+void check_float_count(const airmass::SkySettings& settings, std::size_t float_count) {
+    const std::size_t expected = std::size_t(settings.width) * std::size_t(settings.height) * 4;
+    if (float_count != expected)
+        throw AbiError(AIRMASS_INVALID_ARGUMENT, "float_count = " + std::to_string(float_count) +
+                                                     ": must be width x height x 4 = " + std::to_string(expected));
+}
+
+airmass::RenderHooks progress_hooks(const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
+    airmass::RenderHooks hooks;
+    hooks.cancel = &cancel;
+    auto units = std::make_shared<std::atomic<std::size_t>>(0);
+    hooks.work_done = [units, &fraction](std::size_t n, std::size_t total) {
+        const std::size_t done = units->fetch_add(n, std::memory_order_relaxed) + n;
+        if (total > 0) fraction.store(std::min(1.0, double(done) / double(total)), std::memory_order_relaxed);
+    };
+    return hooks;
+}
+
+void deliver_sky(const Scene& scene, const airmass::SkySettings& settings, const airmass::FloatImage& image,
+                 float* rgba, char** metadata_json) {
+    if (image.width != settings.width || image.height != settings.height || image.channels < 3)
+        throw std::runtime_error("render_sky returned an image of an unexpected size");
+    std::string meta;
+    if (metadata_json) {
+        nlohmann::ordered_json j = nlohmann::ordered_json::object();
+        for (const auto& [key, value] : airmass::sky_metadata(scene, settings)) j[key] = value;
+        meta = j.dump();
+    }
+    const std::size_t pixels = std::size_t(image.width) * image.height;
+    for (std::size_t i = 0; i < pixels; ++i) {
+        const float* px = image.pixels.data() + i * std::size_t(image.channels);
+        float* out = rgba + i * 4;
+        out[0] = px[0];
+        out[1] = px[1];
+        out[2] = px[2];
+        out[3] = 1.0f;
+    }
+    if (metadata_json) *metadata_json = duplicate(meta);
+}
+
 }  // namespace airmass::capi
+
+struct airmass_sky_session {
+    airmass::SkySession session;
+};
 
 using namespace airmass::capi;
 
@@ -263,6 +326,8 @@ int32_t airmass_sky_options_init(airmass_sky_options* options) {
     options->threads = d.threads;
     options->grid = d.grid;
     options->multiple_scattering = d.multiple_scattering ? 1 : 0;
+    options->multiple_grid = d.multiple_grid;
+    options->multiple_samples = d.multiple_samples;
     return AIRMASS_OK;
 }
 
@@ -273,53 +338,97 @@ int32_t airmass_render_sky(const airmass_scene_spec* spec, const airmass_sky_opt
         require_struct(options, "sky_options");
         if (!rgba) throw AbiError(AIRMASS_INVALID_ARGUMENT, "rgba: NULL pointer");
         const Scene scene = build_scene(spec);
-        airmass::SkySettings settings;
-        settings.width = options->width;
-        settings.height = options->height > 0 ? options->height : std::max(2, options->width / 2);
-        settings.view_samples = options->view_samples;
-        settings.chapman = chapman_from(options->chapman, settings.chapman, "sky_options.chapman");
-        settings.sun_disc = options->sun_disc != 0;
-        settings.region = options->upper_only ? airmass::SkyRegion::upper : airmass::SkyRegion::full;
-        settings.threads = options->threads;
-        settings.grid = options->grid;
-        settings.multiple_scattering = options->multiple_scattering != 0;
-        airmass::validate(settings);
-        const std::size_t expected = std::size_t(settings.width) * std::size_t(settings.height) * 4;
-        if (float_count != expected)
-            throw AbiError(AIRMASS_INVALID_ARGUMENT, "float_count = " + std::to_string(float_count) +
-                                                         ": must be width x height x 4 = " + std::to_string(expected));
+        const airmass::SkySettings settings = sky_settings_from(*options);
+        check_float_count(settings, float_count);
         airmass::FloatImage image;
         run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
-            std::atomic<std::size_t> units{0};
-            airmass::RenderHooks hooks;
-            hooks.cancel = &cancel;
-            hooks.work_done = [&](std::size_t n, std::size_t total) {
-                const std::size_t done = units.fetch_add(n, std::memory_order_relaxed) + n;
-                if (total > 0) fraction.store(std::min(1.0, double(done) / double(total)), std::memory_order_relaxed);
-            };
-            image = airmass::render_sky(scene, settings, hooks);
+            image = airmass::render_sky(scene, settings, progress_hooks(cancel, fraction));
             if (cancel.requested()) throw airmass::Cancelled("sky: cancelled");
         });
-        if (image.width != settings.width || image.height != settings.height || image.channels < 3)
-            throw std::runtime_error("render_sky returned an image of an unexpected size");
-        std::string meta;
-        if (metadata_json) {
-            nlohmann::ordered_json j = nlohmann::ordered_json::object();
-            for (const auto& [key, value] : airmass::sky_metadata(scene, settings)) j[key] = value;
-            meta = j.dump();
-        }
-        const std::size_t pixels = std::size_t(image.width) * image.height;
-        for (std::size_t i = 0; i < pixels; ++i) {
-            const float* px = image.pixels.data() + i * std::size_t(image.channels);
-            float* out = rgba + i * 4;
-            out[0] = px[0];
-            out[1] = px[1];
-            out[2] = px[2];
-            out[3] = 1.0f;
-        }
-        if (metadata_json) *metadata_json = duplicate(meta);
+        deliver_sky(scene, settings, image, rgba, metadata_json);
     });
 }
+
+int32_t airmass_sky_view_init(airmass_sky_view* view) {
+    if (!init_size_ok(view)) return AIRMASS_INVALID_ARGUMENT;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    *view = airmass_sky_view{};
+    view->struct_size = sizeof(airmass_sky_view);
+    view->sun_elevation_deg = view->sun_rotation_deg = view->altitude_m = nan;
+    return AIRMASS_OK;
+}
+
+int32_t airmass_sky_session_create(const airmass_scene_spec* spec, const airmass_sky_options* options,
+                                   const airmass_job* job, airmass_sky_session** out, char* message,
+                                   size_t message_size) {
+    if (out) *out = nullptr;
+    return guarded(message, message_size, [&] {
+        if (!out) throw AbiError(AIRMASS_INVALID_ARGUMENT, "out: NULL pointer");
+        if (options) require_struct(options, "sky_options");
+        const Scene scene = build_scene(spec);
+        airmass::SkySettings settings;
+        if (options) {
+            settings = sky_settings_from(*options);
+        } else {
+            settings.height = settings.width / 2;
+            airmass::validate(settings);
+        }
+        std::unique_ptr<airmass_sky_session> session;
+        run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
+            session = std::make_unique<airmass_sky_session>(
+                airmass_sky_session{airmass::SkySession(scene, settings, progress_hooks(cancel, fraction))});
+            if (cancel.requested()) throw airmass::Cancelled("sky session: cancelled");
+        });
+        *out = session.release();
+    });
+}
+
+int32_t airmass_sky_session_render(const airmass_sky_session* session, const airmass_sky_view* view,
+                                   const airmass_sky_options* options, float* rgba, size_t float_count,
+                                   const airmass_job* job, char** metadata_json, char* message, size_t message_size) {
+    return guarded(message, message_size, [&] {
+        if (!session) throw AbiError(AIRMASS_INVALID_ARGUMENT, "session: NULL pointer");
+        if (view) require_struct(view, "sky_view");
+        if (options) require_struct(options, "sky_options");
+        if (!rgba) throw AbiError(AIRMASS_INVALID_ARGUMENT, "rgba: NULL pointer");
+        const airmass::SkySession& ss = session->session;
+        // The scene of this render: the session's, with the view's sun and observer (validated
+        // as a scene file's fields: their names in messages).
+        Scene scene = ss.scene();
+        if (view && given(view->sun_elevation_deg)) scene.sun.elevation_deg = view->sun_elevation_deg;
+        if (view && given(view->sun_rotation_deg)) {
+            if (!std::isfinite(view->sun_rotation_deg))
+                throw airmass::SceneError("sun.azimuth_deg = " + number(view->sun_rotation_deg) + ": must be finite");
+            scene.sun.azimuth_deg = std::fmod(view->sun_rotation_deg, 360.0);
+        }
+        if (view && given(view->altitude_m)) scene.observer.altitude_m = view->altitude_m;
+        airmass::validate(scene);
+        airmass::SkySettings settings = ss.settings();
+        if (options) {
+            const airmass::SkySettings asked = sky_settings_from(*options);
+            if (asked.chapman != settings.chapman)
+                throw airmass::SkyError("sky_options.chapman = \"" + std::string(airmass::chapman_method_name(asked.chapman)) +
+                                        "\": the session was made with \"" +
+                                        std::string(airmass::chapman_method_name(settings.chapman)) +
+                                        "\" (its atmosphere and tables depend on it); create another session");
+            if (asked.multiple_scattering != settings.multiple_scattering)
+                throw airmass::SkyError("sky_options.multiple_scattering = " +
+                                        std::to_string(options->multiple_scattering) + ": the session was made with " +
+                                        (settings.multiple_scattering ? "1" : "0") + "; create another session");
+            settings = asked;
+        }
+        check_float_count(settings, float_count);
+        const glm::dvec3 sun = airmass::sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+        airmass::FloatImage image;
+        run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
+            image = ss.render(sun, scene.observer.altitude_m, settings, progress_hooks(cancel, fraction));
+            if (cancel.requested()) throw airmass::Cancelled("sky: cancelled");
+        });
+        deliver_sky(scene, settings, image, rgba, metadata_json);
+    });
+}
+
+void airmass_sky_session_free(airmass_sky_session* session) { delete session; }
 
 int32_t airmass_sun_light_at_observer(const airmass_scene_spec* spec, const char* chapman, airmass_sun_light* out,
                                       char* message, size_t message_size) {

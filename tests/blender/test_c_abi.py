@@ -204,6 +204,41 @@ def test_concurrent_calls():
     assert not np.array_equal(results[0], results[3]), "the sun elevation changed nothing"
 
 
+def test_sky_session_concurrent_renders():
+    """One session (C ABI 6), four suns rendered at once on four threads: each equals the one-shot
+    native.render_sky of that sun, value for value (a session is immutable, its renders
+    thread-safe); a closed session is refused; multiple scattering on (the tables made once)."""
+    import numpy as np
+    session = native.SkySession(native.Spec(preset="earth"), width=64, view_samples=4)
+    results, errors = {}, []
+    suns = [(-3.0, 10.0), (5.0, 100.0), (30.0, 200.0), (70.0, 300.0)]
+
+    def work(i):
+        try:
+            results[i] = session.render(*suns[i])[0]
+        except Exception as e:  # noqa: BLE001
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    for i, (e, r) in enumerate(suns):
+        spec = native.Spec(preset="earth")
+        spec.sun_elevation_deg, spec.sun_rotation_deg = e, r
+        one_shot = native.render_sky(spec, width=64, view_samples=4)[0]
+        assert np.array_equal(results[i], one_shot), (i, float(np.abs(results[i] - one_shot).max()))
+    # a preview quality from the same session, and errors naming the field
+    small = session.render(20.0, 0.0, width=32, grid=8, multiple_grid=4, multiple_samples=8)[0]
+    assert small.shape == (16, 32, 4) and np.isfinite(small).all()
+    expect_error(lambda: session.render(20.0, 0.0, chapman="exact"), native.SETTINGS_ERROR, "chapman")
+    expect_error(lambda: session.render(20.0, 0.0, multiple_samples=0), native.SETTINGS_ERROR, "multiple_samples")
+    session.close()
+    expect_error(lambda: session.render(20.0, 0.0), native.INVALID_ARGUMENT, "closed")
+
+
 def test_render_sky_buffer():
     """airmass_render_sky writes width·height RGBA floats, rows from the top: A = 1, RGB finite
     and ≥ 0, the zenith row brighter in blue than red at noon (Rayleigh), the ground dark
@@ -331,7 +366,7 @@ def main():
     for fn in (test_version, test_null_and_struct_size, test_scene_errors_name_fields,
                test_sun_transmittance_vs_quadrature, test_settings_errors_name_the_option, test_concurrent_calls,
                test_render_sky_buffer, test_analytic_density_and_vdb, test_sky_multiple_scattering_switch,
-               test_solar_position):
+               test_solar_position, test_sky_session_concurrent_renders):
         case(fn)
     if FAILURES:
         print("FAILED:", ", ".join(FAILURES))

@@ -176,6 +176,99 @@ int main(int argc, char** argv) {
         snprintf(detail, sizeof detail, "zenith rgb %g %g %g", zenith[0], zenith[1], zenith[2]);
         check(zenith[2] > zenith[1] && zenith[1] > zenith[0] && zenith[0] > 0.0f, "zenith is blue", detail);
     }
+    /* ---- sky sessions (ABI 6): one atmosphere, many suns; the pixels of a session render equal
+     * airmass_render_sky's for the same sun (the one render path), bit for bit ---- */
+    {
+        airmass_scene_spec other = spec;
+        other.sun_elevation_deg = 55.0; /* the session's default sun differs from the view's */
+        other.sun_rotation_deg = 140.0;
+        airmass_sky_session* session = NULL;
+        int32_t s = airmass_sky_session_create(&other, &opt, NULL, &session, msg, sizeof msg);
+        check(s == AIRMASS_OK && session != NULL, "sky session created", msg);
+        airmass_sky_view view;
+        view.struct_size = sizeof view;
+        check(airmass_sky_view_init(&view) == AIRMASS_OK && isnan(view.sun_elevation_deg) && isnan(view.altitude_m),
+              "sky_view_init: NaN keeps the session's values", "");
+        float* buf = (float*)malloc(n * sizeof(float));
+        if (!buf) return 3;
+        /* first another sun, then the one-shot call's sun: the second image must not depend on the first */
+        view.sun_elevation_deg = -4.0;
+        view.sun_rotation_deg = 300.0;
+        s = airmass_sky_session_render(session, &view, NULL, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_OK, "session render, sun -4 deg", msg);
+        view.sun_elevation_deg = 20.0;
+        view.sun_rotation_deg = 0.0;
+        airmass_job job;
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.progress = on_progress;
+        progress_calls = 0;
+        last_fraction = -1.0;
+        char* meta = NULL;
+        s = airmass_sky_session_render(session, &view, &opt, buf, n, &job, &meta, msg, sizeof msg);
+        check(s == AIRMASS_OK, "session render, sun 20 deg", msg);
+        check(progress_calls >= 1 && last_fraction == 1.0, "session render: progress ends at 1", "");
+        check(contains(meta, "sun_elevation_deg\\\":20"), "session render: metadata carries the view's sun",
+              meta ? meta : "(null)");
+        airmass_string_free(meta);
+        size_t differ = 0;
+        for (size_t i = 0; i < n; ++i) differ += buf[i] != rgba[i];
+        snprintf(detail, sizeof detail, "%zu of %zu values differ", differ, n);
+        check(differ == 0, "session render equals airmass_render_sky for the same sun", detail);
+        /* a preview quality: other size, samples and grid from the same session */
+        airmass_sky_options small = opt;
+        small.width = 32;
+        small.height = 16;
+        small.view_samples = 4;
+        small.grid = 16;
+        small.multiple_grid = 8;
+        s = airmass_sky_session_render(session, &view, &small, buf, (size_t)32 * 16 * 4, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_OK, "session render at a preview quality", msg);
+        airmass_sky_options exact = opt;
+        exact.chapman = "exact";
+        s = airmass_sky_session_render(session, &view, &exact, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_SETTINGS_ERROR && contains(msg, "chapman"), "session render: another chapman is refused, named",
+              msg);
+        airmass_sky_options no_ms = opt;
+        no_ms.multiple_scattering = 0;
+        s = airmass_sky_session_render(session, &view, &no_ms, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_SETTINGS_ERROR && contains(msg, "multiple_scattering"),
+              "session render: multiple_scattering off is refused, named", msg);
+        view.sun_elevation_deg = 95.0;
+        s = airmass_sky_session_render(session, &view, NULL, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_SCENE_ERROR && contains(msg, "elevation"), "session render: sun elevation 95 refused, named",
+              msg);
+        view.sun_elevation_deg = 20.0;
+        view.altitude_m = -5.0;
+        s = airmass_sky_session_render(session, &view, NULL, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_SCENE_ERROR && contains(msg, "altitude"), "session render: negative altitude refused, named",
+              msg);
+        view.altitude_m = NAN;
+        s = airmass_sky_session_render(session, &view, NULL, buf, n - 4, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "float_count"), "session render: wrong float_count", msg);
+        view.struct_size = 8;
+        s = airmass_sky_session_render(session, &view, NULL, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "struct_size"), "session render: stale sky_view refused", msg);
+        s = airmass_sky_session_render(NULL, NULL, NULL, buf, n, NULL, NULL, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && contains(msg, "session"), "session render: NULL session refused", msg);
+        airmass_sky_session_free(session);
+        airmass_sky_session_free(NULL);
+        /* a cancelled create returns no session */
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.cancel = airmass_cancel_token_new();
+        airmass_cancel_token_request(job.cancel);
+        session = (airmass_sky_session*)&job; /* must be reset to NULL */
+        s = airmass_sky_session_create(&other, &opt, &job, &session, msg, sizeof msg);
+        check(s == AIRMASS_CANCELLED && session == NULL, "a cancelled session create returns no session", msg);
+        airmass_cancel_token_free(job.cancel);
+        airmass_sky_options bad = opt;
+        bad.multiple_grid = 1;
+        s = airmass_sky_session_create(&other, &bad, NULL, &session, msg, sizeof msg);
+        check(s == AIRMASS_SETTINGS_ERROR && contains(msg, "multiple_grid") && session == NULL,
+              "session create: multiple_grid 1 refused, named", msg);
+        free(buf);
+    }
     if (pixels_path) {
         FILE* f = fopen(pixels_path, "w");
         check(f != NULL, "pixels file opened", pixels_path);

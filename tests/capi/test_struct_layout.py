@@ -153,6 +153,7 @@ def test_windows_layout_matches_the_mirror(tmp_path):
 # ---- struct_size comes from the mirror ------------------------------------------------------------
 
 INITS = [("airmass_scene_spec_init", "SceneSpec"), ("airmass_sky_options_init", "SkyOptions"),
+         ("airmass_sky_view_init", "SkyView"),
          ("airmass_solar_query_init", "SolarQuery"),
          ("airmass_vdb_options_init", "VdbOptions"), ("airmass_vdb_block_init", "VdbBlock")]
 

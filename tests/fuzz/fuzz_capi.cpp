@@ -1,7 +1,8 @@
 // libFuzzer target: the C ABI (plugin/capi/include/airmass/airmass_c.h), as a host calls it.
 // The input fills airmass_scene_spec (preset or TOML text, every numeric override, constituent
 // overrides, camera), airmass_sky_options, airmass_vdb_options and the call's sizes; then it calls
-// airmass_validate_scene, airmass_sun_light_at_observer, airmass_render_sky (at most 16x8 pixels),
+// airmass_validate_scene, airmass_sun_light_at_observer, airmass_render_sky (at most 16x8 pixels) and the
+// same sky through airmass_sky_session_create/render (C ABI 6),
 // airmass_analytic_density_json, airmass_vdb_plan and airmass_vdb_grid_values (single scattering;
 // small dense limit and box, so a run stays fast). Oracle: every call returns a known airmass_status; a failure
 // carries a non-empty message; success gives finite, non-negative pixels / irradiances / values,
@@ -50,6 +51,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     static const char* const kNames[] = {"rayleigh", "mie", "ozone", "dust", ""};
 
     airmass_scene_spec spec;
+    spec.struct_size = sizeof spec;  // C ABI 4+: the host sets it, *_init checks it
     airmass_scene_spec_init(&spec);
     std::string toml;
     const uint8_t source = in.ConsumeIntegral<uint8_t>();
@@ -117,6 +119,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
 
     airmass_sky_options sky;
+    sky.struct_size = sizeof sky;  // C ABI 4+: the host sets it, *_init checks it
     airmass_sky_options_init(&sky);
     sky.width = in.ConsumeIntegral<uint8_t>() < 8 ? in.ConsumeIntegral<int32_t>() : in.ConsumeIntegralInRange<int>(1, 16);
     sky.height = in.ConsumeIntegralInRange<int32_t>(-1, 8);
@@ -145,7 +148,29 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         json = nullptr;
     }
 
+    // C ABI 6: the same sky through a session (its create and one render; multiple scattering
+    // off as above), with a fuzzed view.
+    if (in.ConsumeBool()) {
+        airmass_sky_session* session = nullptr;
+        if (status_ok(airmass_sky_session_create(&spec, &sky, nullptr, &session, msg, message_size))) {
+            require(session != nullptr, "session_create succeeded without a session");
+            airmass_sky_view view;
+            view.struct_size = sizeof view;
+            airmass_sky_view_init(&view);
+            view.sun_elevation_deg = maybe(in, 10.0);
+            view.sun_rotation_deg = maybe(in, 90.0);
+            view.altitude_m = maybe(in, 1000.0);
+            if (status_ok(airmass_sky_session_render(session, &view, in.ConsumeBool() ? &sky : nullptr, rgba.data(),
+                                                     float_count, nullptr, nullptr, msg, message_size)))
+                airmass::fuzz::require_finite_non_negative<float>(std::span(rgba.data(), float_count), "session pixel");
+        } else {
+            require(session == nullptr, "a failed session_create left a session");
+        }
+        airmass_sky_session_free(session);
+    }
+
     airmass_vdb_options vdb;
+    vdb.struct_size = sizeof vdb;  // C ABI 4+: the host sets it, *_init checks it
     airmass_vdb_options_init(&vdb);
     static const char* const kRegions[] = {"planet", "view", "box", "nowhere", nullptr};
     static const char* const kUnits[] = {"km", "m", "mm", nullptr};
@@ -173,6 +198,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         const auto& g = plan.at("grids").at(in.ConsumeIntegralInRange<size_t>(0, plan.at("grids").size() - 1));
         const std::string name = g.at("name").get<std::string>();
         airmass_vdb_block block;
+        block.struct_size = sizeof block;  // C ABI 4+: the host sets it, *_init checks it
         airmass_vdb_block_init(&block);
         block.grid = name.c_str();
         for (int k = 0; k < 3; ++k) {

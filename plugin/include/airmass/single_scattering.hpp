@@ -59,6 +59,12 @@ void single_scattering(const Atmosphere& atmosphere, const ViewRay& ray, Radianc
 void single_scattering_batch(const Atmosphere& atmosphere, double altitude_m, Vec3<double> sun_direction,
                              std::span<const Vec3<double>> view_directions, RadianceOut out);
 
+// The view transmittance T(λ) of many view directions (to space or to the ground), the
+// same numbers single_scattering_batch writes to out.transmittance, without the in-scatter
+// (a fraction of its cost). `out`: n × wavelength_count(), element [k * wavelength_count() + w].
+void view_transmittance_batch(const Atmosphere& atmosphere, double altitude_m,
+                              std::span<const Vec3<double>> view_directions, std::span<double> out);
+
 // Aerial perspective (seed 000 §2.6.2): transmittance T and in-scatter S from point
 // `from_m` to point `to_m` (planet-centred metres), or, with to_infinity, from `from_m`
 // along the ray through `to_m` out of the atmosphere (or to the ground). An object of

@@ -33,6 +33,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -139,6 +140,47 @@ MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings
 // Tables of another wavelength count or constituent set are rejected (SkyError).
 FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {},
                       const MultipleScattering* tables = nullptr);
+
+// A sky renderer for one atmosphere, for many suns and observers (an add-on's live preview
+// while the sun is dragged, animations of the sun). Made once: the scene's atmosphere is
+// compiled at the image's wavelengths and the multiple-scattering tables computed (or taken
+// from `tables`, or from settings.multiple.store) — neither depends on the sun, the observer
+// or the image size (table_store.cpp: the tables' key holds neither). Then each render()
+// pays only for the sun direction: the multiple-scattering view, the sky grid and the pixels.
+//
+// render() takes its own settings, which may differ from the session's in everything that
+// neither the atmosphere nor the tables depend on: width, height, region, view_samples,
+// sun_disc, threads, grid, multiple_samples, multiple_grid. A different chapman,
+// multiple_scattering or table setting (settings.multiple) is a SkyError naming the field.
+// render() is const and thread-safe (several renders of one session may run at once); the
+// session must outlive them.
+class SkySession {
+public:
+    // Validates the scene and settings (SkyError/SceneError name the field). `tables`, if
+    // given, must be those of this scene and settings (SkyError otherwise). The table
+    // precompute reports through hooks.work_done as `units` of `total`; cancellable (Cancelled).
+    SkySession(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {},
+               std::shared_ptr<const MultipleScattering> tables = nullptr, std::size_t units = 1000,
+               std::size_t total = 1000);
+
+    // The sky for the sun at `sun_direction` (unit, scene frame: Z up; sun_direction() of
+    // Blender's angles) and an observer `altitude_m` above the ground. Progress through
+    // hooks.work_done in units of a total that render() chooses; cancellable (Cancelled).
+    FloatImage render(const glm::dvec3& sun_direction, double altitude_m, const SkySettings& settings,
+                      const RenderHooks& hooks = {}) const;
+    // The same with the session's settings.
+    FloatImage render(const glm::dvec3& sun_direction, double altitude_m, const RenderHooks& hooks = {}) const;
+
+    const Scene& scene() const;
+    const SkySettings& settings() const;
+    // The tables in use (null with multiple scattering off).
+    const std::shared_ptr<const MultipleScattering>& tables() const;
+
+    struct Impl;
+
+private:
+    std::shared_ptr<const Impl> impl_;
+};
 
 // Linear Rec.709 radiance of one direction (sun disc as a point-sampled uniform disc);
 // for tests and reports. `direction` need not be unit. With multiple scattering on, this

@@ -116,11 +116,16 @@ struct SkyGrid {
         const int piece_end = c.r0 < rows_sky ? rows_sky - 1 : rows() - 1;
         c.r1 = std::min(c.r0 + 1, piece_end);
         c.wr = c.r1 > c.r0 ? fr - c.r0 : 0.0;
+        column(phi, c.c0, c.wc);
+        return true;
+    }
+    // The column part of cell(): it depends on the azimuth only (an image row shares its
+    // row part, an image column its column part).
+    void column(double phi, int& c0, double& wc) const {
         const double psi = std::abs(std::remainder(phi - sun_phi, 2.0 * std::numbers::pi));
         const double fc = std::min(psi / std::numbers::pi, 1.0) * intervals;
-        c.c0 = std::min(static_cast<int>(fc), intervals - 1);
-        c.wc = fc - c.c0;
-        return true;
+        c0 = std::min(static_cast<int>(fc), intervals - 1);
+        wc = fc - c0;
     }
     // The interpolated values of a cell (out.size() == channels).
     void interpolate(const Cell& c, std::span<double> out) const {

@@ -26,6 +26,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "airmass/sky_grid.hpp"
+#include "airmass/table_store.hpp"
 #include "airmass/version.hpp"
 
 
@@ -149,6 +150,16 @@ struct SkyContext {
     const Atmosphere& atmosphere() const { return evaluator.atmosphere(); }
 };
 
+// What one image needs: an evaluator (a session's, or a SkyContext's), the map to RGB, the
+// sun and the observer.
+struct FrameContext {
+    const Evaluator& evaluator;
+    const SpectrumToRgb& to_rgb;
+    glm::dvec3 sun;
+    double altitude_m;
+    const Atmosphere& atmosphere() const { return evaluator.atmosphere(); }
+};
+
 MultipleScatteringOptions ms_options(const SkySettings& s) {
     return {s.multiple_scattering, s.multiple, s.multiple_samples};
 }
@@ -181,9 +192,9 @@ SkyInputs prepare(const Scene& scene, const SkySettings& settings) {
 // The context of a sky: the evaluator over the caller's tables (checked: SkyError names
 // them) or over tables computed now, reported as `units` of `total` through the hooks.
 SkyContext make_context(SkyInputs in, const SkySettings& settings, const RenderHooks& hooks,
-                        const MultipleScattering* tables, std::size_t units, std::size_t total) {
+                        std::shared_ptr<const MultipleScattering> tables, std::size_t units, std::size_t total) {
     std::shared_ptr<const MultipleScattering> shared;
-    if (tables && settings.multiple_scattering) shared = {std::shared_ptr<void>(), tables};  // not owned
+    if (tables && settings.multiple_scattering) shared = std::move(tables);
     try {
         return {make_evaluator(std::move(in.atmosphere), ms_options(settings), settings.threads, hooks, shared, units,
                                total),
@@ -220,7 +231,7 @@ long mirror_key(const glm::dvec3& sun, int width) {
 // box-filtered: N points spread uniformly over the disc's solid angle (a sunflower spiral)
 // each carry E·T/N of irradiance into the pixel they fall in, divided by that pixel's solid
 // angle. The total Σ L·Ω_pixel equals the disc's transmitted irradiance at any resolution.
-void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage& image) {
+void add_sun_disc(const FrameContext& ctx, const SkySettings& settings, FloatImage& image) {
     const Atmosphere& atm = ctx.atmosphere();
     const double alpha = atm.sun_angular_radius_rad;
     if (!(alpha > 0.0)) return;
@@ -291,16 +302,29 @@ void add_sun_disc(const SkyContext& ctx, const SkySettings& settings, FloatImage
     }
 }
 
-}  // namespace
-
-int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
+// settings.grid resolved for a sun (the mirror halves the rays of a per-pixel image).
+int grid_for(const glm::dvec3& sun, const SkySettings& settings) {
     if (settings.grid >= 0) return settings.grid;
     const int image_rows = settings.region == SkyRegion::upper ? (settings.height + 1) / 2 : settings.height;
-    const bool mirrored = mirror_key(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings.width) >= 0;
+    const bool mirrored = mirror_key(sun, settings.width) >= 0;
     const double pixel_rays = double(settings.width) * image_rows / (mirrored ? 2.0 : 1.0);
     const int rows = settings.region == SkyRegion::upper ? kSkyDefaultGrid / 2 + 1 : kSkyDefaultGrid + 2;
     const double grid_rays = double(kSkyDefaultGrid + 1) * rows;
     return grid_rays < pixel_rays ? kSkyDefaultGrid : 0;
+}
+
+// The progress units of one image (render_frame reports exactly these): a unit per grid row
+// and per image row.
+std::size_t frame_work(const SkySettings& settings, int G, const Horizon& hz) {
+    if (G <= 0) return std::size_t(settings.height);
+    const SkyGrid shape = SkyGrid::make(G, hz, Vec3<double>(0.0, 0.0, 1.0), 0, settings.region == SkyRegion::upper);
+    return std::size_t(shape.rows()) + std::size_t(settings.height);
+}
+
+}  // namespace
+
+int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
+    return grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings);
 }
 
 MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
@@ -309,11 +333,13 @@ MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings
     return *compute_tables(in.atmosphere, options, settings.threads, hooks, 1000, 1000);
 }
 
-FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks,
-                      const MultipleScattering* tables) {
-    SkyInputs in = prepare(scene, settings);
+namespace {
+
+// One image of a prepared sky (FrameContext: evaluator, colour map, sun, observer), with
+// progress reported as frame_work(settings, G, hz) units.
+FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, const RenderHooks& hooks) {
     const int W = settings.width, H = settings.height;
-    const std::size_t nw = in.atmosphere.wavelength_count();
+    const std::size_t nw = ctx.atmosphere().wavelength_count();
     FloatImage image;
     try {
         image = FloatImage(W, H, 3);
@@ -323,25 +349,19 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     }
     const bool upper = settings.region == SkyRegion::upper;
     const int image_rows = upper ? (H + 1) / 2 : H;  // rows whose centre is at or above the horizon
-    const long key = mirror_key(in.sun, W);
+    const long key = mirror_key(ctx.sun, W);
 
     // Per pixel or through the grid?
-    const Horizon hz = Horizon::of(in.atmosphere.planet_radius_m, in.atmosphere.top_altitude_m, in.altitude_m);
-    const int G = effective_sky_grid(scene, settings);
+    const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m);
+    const int G = grid_for(ctx.sun, settings);
     SkyGrid grid;
-    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(in.sun), 6, upper);  // RGB scattered, RGB ground
+    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
     const int grid_rows = grid.rows();
-    // The table precompute, when it runs here, counts as much as the image (it takes about
-    // as long as a default 2048 × 1024 image's grid; docs/sky.md).
-    const std::size_t image_work = std::size_t(grid_rows) + std::size_t(H);
-    const std::size_t ms_work = settings.multiple_scattering && !tables ? image_work : 0;
-    const std::size_t total_work = ms_work + image_work;
+    const std::size_t total_work = frame_work(settings, G, hz);
     auto report = [&](std::size_t n) {
         if (hooks.work_done) hooks.work_done(n, total_work);
     };
     auto cancelled = [&] { return hooks.cancel && hooks.cancel->requested(); };
-
-    const SkyContext ctx = make_context(std::move(in), settings, hooks, tables, ms_work, total_work);
 
     const int threads = settings.threads > 0 ? settings.threads : hardware_threads();
 
@@ -423,6 +443,8 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
         if (cancelled()) throw Cancelled("sky: cancelled");
         // T̄ of every image row (one ray per row, toward the sun's azimuth).
         std::vector<double> row_transmittance(std::size_t(image_rows), 1.0);
+        // Only T is needed here: view_transmittance_batch gives single scattering's T without
+        // integrating the in-scatter and the multiple scattering of the row's ray.
         parallel_for(0, std::size_t(image_rows), 64, threads, [&](std::size_t rb, std::size_t re, int worker) {
             Scratch& s = scratch[std::size_t(worker)];
             s.resize(re - rb, nw);
@@ -430,10 +452,17 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                 const double theta = kPi * (double(y) + 0.5) / H, st = std::sin(theta);
                 s.dirs[y - rb] = Vec3<double>(st * std::cos(grid.sun_phi), st * std::sin(grid.sun_phi), std::cos(theta));
             }
-            evaluate(s, re - rb);
+            view_transmittance_batch(ctx.atmosphere(), ctx.altitude_m,
+                                     std::span<const Vec3<double>>(s.dirs.data(), re - rb),
+                                     std::span<double>(s.transmittance.data(), (re - rb) * nw));
             for (std::size_t y = rb; y < re; ++y)
                 row_transmittance[y] = mean_transmittance(s.transmittance.data() + (y - rb) * nw);
         });
+        // Every image column's azimuth cell (the same in every row).
+        std::vector<int> column_c0(std::size_t(W), 0);
+        std::vector<double> column_wc(std::size_t(W), 0.0);
+        for (int x = 0; x < W; ++x)
+            grid.column(kPi - kTwoPi * (x + 0.5) / W, column_c0[std::size_t(x)], column_wc[std::size_t(x)]);
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
                 for (int y = int(rb); y < int(re); ++y) {
@@ -443,7 +472,11 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
                         const double T = row_transmittance[std::size_t(y)];
                         SkyGrid::Cell cell;
                         double v[6];
-                        for (int x = 0; x < W && grid.cell(theta, kPi - kTwoPi * (x + 0.5) / W, cell); ++x) {
+                        // The row part of the cell once per row, the column part from the table.
+                        const bool in_atmosphere = grid.cell(theta, grid.sun_phi, cell);
+                        for (int x = 0; x < W && in_atmosphere; ++x) {
+                            cell.c0 = column_c0[std::size_t(x)];
+                            cell.wc = column_wc[std::size_t(x)];
                             grid.interpolate(cell, v);
                             float* px = image.at(x, y);
                             for (int ch = 0; ch < 3; ++ch)
@@ -490,11 +523,102 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     return image;
 }
 
+}  // namespace
+
+struct SkySession::Impl {
+    Scene scene;
+    SkySettings settings;
+    Atmosphere atmosphere;  // compiled at the image's wavelengths with settings.chapman
+    SpectrumToRgb to_rgb;
+    std::shared_ptr<const MultipleScattering> tables;
+    std::string table_key;  // ms_table_key of the tables (empty without multiple scattering)
+};
+
+SkySession::SkySession(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks,
+                       std::shared_ptr<const MultipleScattering> tables, std::size_t units, std::size_t total) {
+    SkyInputs in = prepare(scene, settings);
+    auto impl = std::make_shared<Impl>();
+    impl->scene = scene;
+    impl->settings = settings;
+    impl->to_rgb = std::move(in.to_rgb);
+    if (settings.multiple_scattering) {
+        // The evaluator's checks of given tables (SkyError names them), then the tables alone.
+        SkyContext ctx = make_context(SkyInputs{in.atmosphere, impl->to_rgb, in.sun, in.altitude_m}, settings, hooks,
+                                      std::move(tables), units, total);
+        impl->tables = ctx.evaluator.shared_tables();
+        impl->table_key = ms_table_key(in.atmosphere, settings.multiple);
+    } else if (units > 0 && hooks.work_done) {
+        hooks.work_done(units, total);
+    }
+    impl->atmosphere = std::move(in.atmosphere);
+    impl_ = std::move(impl);
+}
+
+const Scene& SkySession::scene() const { return impl_->scene; }
+const SkySettings& SkySession::settings() const { return impl_->settings; }
+const std::shared_ptr<const MultipleScattering>& SkySession::tables() const { return impl_->tables; }
+
+FloatImage SkySession::render(const glm::dvec3& sun, double altitude_m, const RenderHooks& hooks) const {
+    return render(sun, altitude_m, impl_->settings, hooks);
+}
+
+FloatImage SkySession::render(const glm::dvec3& sun, double altitude_m, const SkySettings& settings,
+                              const RenderHooks& hooks) const {
+    const Impl& s = *impl_;
+    validate(settings);
+    if (!(std::isfinite(sun.x) && std::isfinite(sun.y) && std::isfinite(sun.z)) ||
+        std::abs(glm::length(sun) - 1.0) > 1e-6)
+        throw SkyError("sun direction = (" + std::to_string(sun.x) + ", " + std::to_string(sun.y) + ", " +
+                       std::to_string(sun.z) + "): must be a unit vector");
+    if (!(std::isfinite(altitude_m) && altitude_m >= 0.0 && altitude_m <= 1e9))
+        throw SkyError("observer.altitude_m = " + std::to_string(altitude_m) + ": must be in [0, 1e9]");
+    if (settings.chapman != s.settings.chapman)
+        throw SkyError(std::string("chapman = ") + std::string(chapman_method_name(settings.chapman)) +
+                       ": the session was made with " + std::string(chapman_method_name(s.settings.chapman)) +
+                       " (its atmosphere and tables depend on it); make another session");
+    if (settings.multiple_scattering != s.settings.multiple_scattering)
+        throw SkyError(std::string("multiple_scattering = ") + (settings.multiple_scattering ? "true" : "false") +
+                       ": the session was made with " + (s.settings.multiple_scattering ? "true" : "false") +
+                       "; make another session");
+    if (settings.multiple_scattering && ms_table_key(s.atmosphere, settings.multiple) != s.table_key)
+        throw SkyError("multiple: the table settings differ from the session's (the tables depend on them); make "
+                       "another session");
+    // The per-render evaluator: the session's atmosphere with this render's view samples, the
+    // session's tables shared (no copy, no precompute).
+    Atmosphere atm = s.atmosphere;
+    atm.settings.view_samples = settings.view_samples;
+    const Evaluator evaluator = s.tables ? Evaluator(std::move(atm), s.tables, settings.multiple_samples)
+                                         : Evaluator(std::move(atm));
+    return render_frame(FrameContext{evaluator, s.to_rgb, sun, altitude_m}, settings, hooks);
+}
+
+FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks,
+                      const MultipleScattering* tables) {
+    validate(scene);
+    validate(settings);
+    const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
+    // One bar for both parts: the table precompute, when it runs here, counts as much as the
+    // image (it takes about as long as a default 2048 × 1024 image's grid; docs/sky.md).
+    const Horizon hz = Horizon::of(scene.planet.radius_m, scene.planet.atmosphere_top_m - scene.planet.radius_m,
+                                   scene.observer.altitude_m);
+    const std::size_t image_work = frame_work(settings, grid_for(sun, settings), hz);
+    const std::size_t ms_work = settings.multiple_scattering && !tables ? image_work : 0;
+    const std::size_t total_work = ms_work + image_work;
+    const SkySession session(scene, settings, hooks, {std::shared_ptr<void>(), tables} /* not owned */, ms_work,
+                             total_work);
+    RenderHooks frame_hooks;
+    frame_hooks.cancel = hooks.cancel;
+    if (hooks.work_done)
+        frame_hooks.work_done = [&](std::size_t n, std::size_t) { hooks.work_done(n, total_work); };
+    return session.render(sun, scene.observer.altitude_m, settings, frame_hooks);
+}
+
 std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
                                          std::span<const glm::dvec3> directions, const MultipleScattering* tables) {
     SkyInputs in = prepare(scene, settings);
     in.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
-    const SkyContext ctx = make_context(std::move(in), settings, {}, tables, 0, 0);
+    const SkyContext ctx = make_context(std::move(in), settings, {},
+                                        {std::shared_ptr<void>(), tables} /* not owned */, 0, 0);
     const std::size_t nw = ctx.atmosphere().wavelength_count();
     std::vector<glm::dvec3> out(directions.size());
     parallel_for(0, directions.size(), 16, settings.threads,

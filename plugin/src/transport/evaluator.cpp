@@ -133,12 +133,14 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
     SkyGrid& g = view.grid;
     parallel_for(0, std::size_t(g.rows()) * g.columns(), 16, threads, [&](std::size_t b, std::size_t e, int) {
         MsScratch scratch(nw);
-        std::vector<double> T(nw), ray(nw), mie(nw), L(nw);
+        std::vector<double> T(nw);
         for (std::size_t n = b; n < e; ++n) {
             if (hooks.cancel && hooks.cancel->requested()) return;
             const int k = int(n / g.columns()), j = int(n % g.columns());
             const ViewRay vr{altitude_m, g.node_direction(k, j), sun};
-            single_scattering(atmosphere_, vr, RadianceOut{T, ray, mie, L});  // its view transmittance
+            // Its view transmittance only (the numbers single scattering would give, without
+            // the in-scatter it would also integrate).
+            view_transmittance_batch(atmosphere_, altitude_m, std::span<const Vec3<double>>(&vr.view_direction, 1), T);
             multiple_scattering_radiance(atmosphere_, *tables_, vr, {scratch.rayleigh, scratch.mie, scratch.total},
                                          ms_view_samples_);
             double* node = g.at(k, j);

@@ -45,6 +45,11 @@ void single_scattering_batch(const Atmosphere& atm, double altitude_m, Vec3<doub
     AIRMASS_SIMD_RETURN(single_scattering_batch_impl(atm, altitude_m, sun, dirs, out));
 }
 
+void view_transmittance_batch(const Atmosphere& atm, double altitude_m, std::span<const Vec3<double>> dirs,
+                              std::span<double> T_out) {
+    AIRMASS_SIMD_RETURN(view_transmittance_batch_impl(atm, altitude_m, dirs, T_out));
+}
+
 void aerial_perspective(const Atmosphere& atm, Vec3<double> from, Vec3<double> to, Vec3<double> sun,
                         bool to_infinity, std::span<double> T_out, std::span<double> S_out) {
     AIRMASS_SIMD_RETURN(aerial_perspective_impl(atm, from, to, sun, to_infinity, T_out, S_out));

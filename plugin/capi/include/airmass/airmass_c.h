@@ -42,7 +42,7 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 5  /* 2: airmass_sky_options.multiple_scattering
+#define AIRMASS_C_ABI_VERSION 6  /* 2: airmass_sky_options.multiple_scattering
                                     3: no files: the sky and the volume grids are returned as
                                        float buffers that the host writes (Blender's image API,
                                        its own OpenVDB module); airmass_write_sky_exr and
@@ -50,7 +50,11 @@ extern "C" {
                                     4: the *_init functions return a status and read struct_size,
                                        which the caller sets (they wrote it before): a size they
                                        do not know is refused and the struct left untouched
-                                    5: airmass_solar_position (added; nothing else changed) */
+                                    5: airmass_solar_position (added; nothing else changed)
+                                    6: sky sessions (airmass_sky_session_*: the atmosphere and its
+                                       multiple-scattering tables made once, a sky per sun
+                                       direction); airmass_sky_options gains multiple_grid and
+                                       multiple_samples (its size differs from ABI 5's) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -164,6 +168,11 @@ typedef struct airmass_sky_options {
     int32_t grid;           /* sky grid intervals (sky.hpp SkySettings::grid): -1 automatic,
                                0 every pixel, N > 0 an N-interval grid interpolated per pixel */
     int32_t multiple_scattering; /* 1 (default): add multiple scattering (docs/multiple_scattering.md) */
+    int32_t multiple_grid;  /* the multiple-scattering view's azimuth intervals (sky.hpp
+                               SkySettings::multiple_grid, default 32): 0 integrates every ray,
+                               else in [2, 16384] */
+    int32_t multiple_samples; /* quadrature intervals along each multiple-scattering view ray
+                               (SkySettings::multiple_samples, default 32), [1, 100000] */
 } airmass_sky_options;
 
 AIRMASS_C_API int32_t airmass_sky_options_init(airmass_sky_options* options); /* struct_size set first */
@@ -178,6 +187,53 @@ AIRMASS_C_API int32_t airmass_sky_options_init(airmass_sky_options* options); /*
 AIRMASS_C_API int32_t airmass_render_sky(const airmass_scene_spec* spec, const airmass_sky_options* options,
                                          float* rgba, size_t float_count, const airmass_job* job,
                                          char** metadata_json, char* message, size_t message_size);
+
+/* ---- Sky sessions: one atmosphere, many suns ---------------------------------------------------
+ *
+ * airmass_render_sky compiles the atmosphere and computes the multiple-scattering tables (about a
+ * second at 48 wavelengths) on every call. Neither depends on the sun, the observer or the image,
+ * so a host that renders many skies of one atmosphere (a live preview while the sun is dragged)
+ * makes a session once and renders each sun with it:
+ *   1. airmass_sky_session_create(spec, options, job, &session, ...): the scene (its sun and
+ *      observer are only defaults for the renders), the options' chapman and
+ *      multiple_scattering (fixed for the session); a long call (the tables), progress/cancel
+ *      through `job` (may be NULL). The other options are the renders' defaults.
+ *   2. airmass_sky_session_render(session, view, options, rgba, ...): the sky for view's sun and
+ *      observer into the caller's buffer, exactly as airmass_render_sky would render it for that
+ *      spec with the sun and altitude overridden (same pixels). `options` may be NULL (the
+ *      session's) or differ from them in width, height, view_samples, sun_disc, upper_only,
+ *      threads, grid, multiple_grid and multiple_samples (a preview quality); a different chapman or
+ *      multiple_scattering is AIRMASS_SETTINGS_ERROR naming the field (make another session).
+ *   3. airmass_sky_session_free(session).
+ * Thread-safe: a session is immutable after create; renders of one session may run at once on
+ * several threads (each needs its own buffer). Free it only when no call uses it. */
+
+typedef struct airmass_sky_session airmass_sky_session;
+
+/* The sun and the observer of one render. NaN (the defaults of airmass_sky_view_init): the
+ * session's scene value. */
+typedef struct airmass_sky_view {
+    uint32_t struct_size;
+    double sun_elevation_deg;  /* [-90, 90]                                       */
+    double sun_rotation_deg;   /* Blender Sky Texture rotation: 0 → +Y, 90 → +X; finite */
+    double altitude_m;         /* observer above the surface, [0, 1e9]              */
+} airmass_sky_view;
+
+AIRMASS_C_API int32_t airmass_sky_view_init(airmass_sky_view* view); /* struct_size set first */
+
+/* `*out` receives the session (NULL on failure). `options` may be NULL (the defaults). */
+AIRMASS_C_API int32_t airmass_sky_session_create(const airmass_scene_spec* spec, const airmass_sky_options* options,
+                                                 const airmass_job* job, airmass_sky_session** out, char* message,
+                                                 size_t message_size);
+
+/* As airmass_render_sky (buffer layout, float_count, metadata_json, job, cancel) for the view's
+ * sun and observer. `view` and `options` may be NULL (the session's). */
+AIRMASS_C_API int32_t airmass_sky_session_render(const airmass_sky_session* session, const airmass_sky_view* view,
+                                                 const airmass_sky_options* options, float* rgba, size_t float_count,
+                                                 const airmass_job* job, char** metadata_json, char* message,
+                                                 size_t message_size);
+
+AIRMASS_C_API void airmass_sky_session_free(airmass_sky_session* session); /* NULL is fine */
 
 /* ---- Sunlight at the observer (for a Sun lamp) ------------------------------------------------ */
 
