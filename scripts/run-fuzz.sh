@@ -63,7 +63,7 @@ for t in "${targets[@]}"; do
     if ! "$bin" "${flags[@]}" "${run_flags[@]}" "$work" "$seeds" >"$log" 2>&1; then
       echo "fuzz: $t: FAILED (log $log; input in $build/artifacts/)"; tail -n 60 "$log"; status=1
     fi
-    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*$' || echo "?")
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*' || echo "?")
     line="fuzz: $t: $execs executions ($what) in $(($(date +%s) - t0)) s incl. replay, corpus $(ls "$seeds" | wc -l) seeds + $(ls "$work" | wc -l) found, coverage $cov edges"
   else

@@ -22,7 +22,9 @@ echo "run-tests: main ctest $((t1 - t0)) s"
 # With extra ctest arguments (a selection) it is skipped too, unless AIRMASS_RELIABILITY=1.
 reliability="${AIRMASS_RELIABILITY:-$([ $# -eq 0 ] && echo 1 || echo 0)}"
 if [ "$reliability" != 0 ]; then
-  AIRMASS_SANITIZE_BUILD_DIR="${build}-asan" bash "$root/scripts/run-sanitizers.sh" || status=1
+  # AIRMASS_SANITIZE_ARGS: extra ctest arguments for the sanitizer tests (e.g. "-E MultipleScattering").
+  # shellcheck disable=SC2086
+  AIRMASS_SANITIZE_BUILD_DIR="${build}-asan" bash "$root/scripts/run-sanitizers.sh" ${AIRMASS_SANITIZE_ARGS:-} || status=1
   t2=$(date +%s)
   AIRMASS_FUZZ_BUILD_DIR="${build}-asan" bash "$root/scripts/run-fuzz.sh" --runs "${AIRMASS_FUZZ_RUNS:-2000}" || status=1
   echo "run-tests: sanitizer stage $((t2 - t1)) s, fuzz stage $(($(date +%s) - t2)) s"

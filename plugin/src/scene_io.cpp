@@ -69,6 +69,7 @@ constexpr double kMaxAngularRadiusDeg = 5.0;
 constexpr double kMinRadiusKm = 1.0;
 constexpr double kMaxReferenceScaleHeights = 50.0;
 constexpr double kMinScaleHeightKm = 1e-3;
+constexpr double kMaxScaleHeightKm = 1e9;
 // Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
 // the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
 // overflow to +inf (issue 17: 1e300 rendered +inf pixels).
@@ -186,9 +187,12 @@ void validate_profile(const std::string& path, const DensityProfile& p) {
         case DensityProfile::Kind::exponential:
             // Thinner layers (1e-30 km, a denormal: issue 17) pushed the optical depths and the
             // Angstrom law's beta / column (proportional to 1/H) beyond float's range: +inf sky pixels.
-            require_range(std::isfinite(p.scale_height_m) && km(p.scale_height_m) >= kMinScaleHeightKm,
+            // Huge ones (1.8e308 m, found by fuzz_scene_json) gave NaN transmittance: bounded at
+            // 1e9 km, a thousand times the largest planet radius (a constant density long before).
+            require_range(std::isfinite(p.scale_height_m) && km(p.scale_height_m) >= kMinScaleHeightKm &&
+                              km(p.scale_height_m) <= kMaxScaleHeightKm,
                           path + ".scale_height_km", km(p.scale_height_m),
-                          "must be >= " + num(kMinScaleHeightKm) + " (1 m)");
+                          "must be in [" + num(kMinScaleHeightKm) + ", " + num(kMaxScaleHeightKm) + "] (1 m to 1e9 km)");
             // exp(h_ref / H) scales the density at the ground: beyond ±50 scale heights the
             // column overflowed or vanished and a derived field (extinction.beta) was refused.
             require_range(std::isfinite(p.reference_altitude_m) &&
@@ -997,7 +1001,77 @@ std::optional<std::string_view> embedded_preset(std::string_view name) {
 
 std::string preset_source_name(std::string_view name) { return "<preset " + std::string(name) + ">"; }
 
+// toml++ 3.3's is_non_ascii_horizontal_whitespace() reaches TOML_UNREACHABLE (__builtin_unreachable:
+// undefined behaviour) for most code points from U+00A1 on, e.g. 'µ' (found by fuzz_scene_toml: a
+// table header "[plaµm)"). The parser asks it about characters outside strings and comments, after
+// a backslash in a multi-line string, and at the start of a line continued by a line-ending
+// backslash. TOML allows non-ASCII characters only inside strings and comments, and none of its
+// escapes is one, so those are refused here first, as TOML syntax errors with line and column.
+// (Only a non-ASCII character right after a line-ending backslash's whitespace is valid TOML.)
+void refuse_misplaced_non_ascii(std::string_view text, std::string_view source_name) {
+    enum class In { code, comment, basic, literal, ml_basic, ml_literal } in = In::code;
+    std::size_t line = 1, line_start = 0;
+    const auto fail = [&](std::size_t i, const char* what) {
+        throw LocatedError(std::string(source_name) + ":" + std::to_string(line) + ":" +
+                           std::to_string(i - line_start + 1) + ": TOML syntax error: a non-ASCII character " + what);
+    };
+    const auto at = [&](std::size_t i, std::string_view s) { return text.substr(i, s.size()) == s; };
+    const auto newline = [&](std::size_t i) { ++line; line_start = i + 1; };
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const unsigned char ch = static_cast<unsigned char>(text[i]);
+        if (ch == '\n') newline(i);
+        switch (in) {
+            case In::code:
+                if (ch >= 0x80) fail(i, "outside a string or comment");
+                if (ch == '#') in = In::comment;
+                else if (at(i, "\"\"\"")) in = In::ml_basic, i += 2;
+                else if (at(i, "'''")) in = In::ml_literal, i += 2;
+                else if (ch == '"') in = In::basic;
+                else if (ch == '\'') in = In::literal;
+                break;
+            case In::comment:
+                if (ch == '\n') in = In::code;
+                break;
+            case In::literal:
+                if (ch == '\'' || ch == '\n') in = In::code;
+                break;
+            case In::ml_literal:
+                if (at(i, "'''")) {
+                    in = In::code;
+                    i += 2;
+                    while (i + 1 < text.size() && text[i + 1] == '\'') ++i;  // up to two quotes of content
+                }
+                break;
+            case In::basic:
+            case In::ml_basic:
+                if (ch == '\\') {
+                    if (i + 1 >= text.size()) break;
+                    if (static_cast<unsigned char>(text[i + 1]) >= 0x80) fail(i + 1, "after a backslash");
+                    if (in == In::ml_basic && (text[i + 1] == ' ' || text[i + 1] == '\t' || text[i + 1] == '\r' ||
+                                               text[i + 1] == '\n')) {
+                        // a line-ending backslash: the whitespace after it is skipped
+                        while (i + 1 < text.size() && (text[i + 1] == ' ' || text[i + 1] == '\t' ||
+                                                       text[i + 1] == '\r' || text[i + 1] == '\n'))
+                            if (text[++i] == '\n') newline(i);
+                        if (i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) >= 0x80)
+                            fail(i + 1, "right after a line-ending backslash (not supported by toml++ 3.3)");
+                        break;
+                    }
+                    if (text[++i] == '\n') newline(i);
+                } else if (in == In::basic && (ch == '"' || ch == '\n')) {
+                    in = In::code;
+                } else if (in == In::ml_basic && at(i, "\"\"\"")) {
+                    in = In::code;
+                    i += 2;
+                    while (i + 1 < text.size() && text[i + 1] == '"') ++i;
+                }
+                break;
+        }
+    }
+}
+
 toml::table parse_toml(std::string_view text, std::string_view source_name) {
+    refuse_misplaced_non_ascii(text, source_name);
     try {
         return toml::parse(text, source_name);
     } catch (const toml::parse_error& e) {
