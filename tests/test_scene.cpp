@@ -514,7 +514,7 @@ TEST(SceneValidate, Constituents) {
     EXPECT_ERROR(with(kMinimal, "scale_height_km = 8", "scale_height_km = 0"),
                  "constituent[0].profile.scale_height_km = 0: must be in [0.001, 1000000000] (1 m to 1e9 km)");
     EXPECT_ERROR(with(kMinimal, "value_per_m = 4e-6", "value_per_m = -4e-6"),
-                 "constituent[1].scattering.value_per_m = -4e-06: must be >= 0");
+                 "constituent[1].scattering.value_per_m = -4e-06: must be in [0, 1e+300]");
     EXPECT_ERROR(with(kMinimal, "value_per_m_at_1um = 1.24062e-6", "value_per_m_at_1um = -1"),
                  "constituent[0].scattering.value_per_m_at_1um = -1: must be >= 0");
     EXPECT_ERROR(with(kMinimal, "law = \"constant\"", "law = \"linear\""),

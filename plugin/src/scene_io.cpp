@@ -70,6 +70,7 @@ constexpr double kMinRadiusKm = 1.0;
 constexpr double kMaxReferenceScaleHeights = 50.0;
 constexpr double kMinScaleHeightKm = 1e-3;
 constexpr double kMaxScaleHeightKm = 1e9;
+constexpr double kMaxCoefficientPerM = 1e300;
 // Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
 // the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
 // overflow to +inf (issue 17: 1e300 rendered +inf pixels).
@@ -250,11 +251,18 @@ double lowest_density_altitude_m(const DensityProfile& p) {
     return inf;
 }
 
+void require_coefficient(const std::string& path, double v) {
+    require_range(std::isfinite(v) && v >= 0.0 && v <= kMaxCoefficientPerM, path, v,
+                  "must be in [0, " + num(kMaxCoefficientPerM) + "]");
+}
+
 void validate_coefficient(const std::string& path, const SpectralCoefficient& c, double need_lo_nm, double need_hi_nm) {
     switch (c.law) {
-        case SpectralCoefficient::Law::constant: require_non_negative(path + ".value_per_m", c.value_per_m); return;
+        // Coefficients up to 1e300 per m: DBL_MAX scattering plus DBL_MAX absorption overflowed the
+        // extinction to inf and gave NaN transmittance (fuzz_scene_json, 2026-12-02).
+        case SpectralCoefficient::Law::constant: require_coefficient(path + ".value_per_m", c.value_per_m); return;
         case SpectralCoefficient::Law::power_law:
-            require_non_negative(path + ".value_per_m", c.value_per_m);
+            require_coefficient(path + ".value_per_m", c.value_per_m);
             require_positive(path + ".reference_nm", c.reference_nm);
             require_range(std::isfinite(c.exponent) && std::abs(c.exponent) <= kMaxExponent, path + ".exponent",
                           c.exponent, "must be in [-" + num(kMaxExponent) + ", " + num(kMaxExponent) + "]");
@@ -262,9 +270,7 @@ void validate_coefficient(const std::string& path, const SpectralCoefficient& c,
             // reference of 1e300 nm with exponent 10 gave σ = inf, refused naming only the derived
             // "scattering at 615 nm" (issue 17, extremes). The factor's bound F gives reference's range.
             if (c.exponent != 0.0) {
-                const double F = std::min(1e300, c.value_per_m > 0.0 ? std::numeric_limits<double>::max() /
-                                                                           c.value_per_m
-                                                                     : 1e300);
+                const double F = std::min(1e300, c.value_per_m > 1.0 ? kMaxCoefficientPerM / c.value_per_m : 1e300);
                 const double root = std::pow(F, 1.0 / std::abs(c.exponent));
                 if (c.exponent > 0.0) {
                     const double max_ref = need_lo_nm * root;
@@ -281,6 +287,8 @@ void validate_coefficient(const std::string& path, const SpectralCoefficient& c,
             return;
         case SpectralCoefficient::Law::table:
             check_table(path, c.table, "values_per_m", need_lo_nm, need_hi_nm);
+            for (std::size_t i = 0; i < c.table.size(); ++i)
+                require_coefficient(path + ".values_per_m[" + std::to_string(i) + "]", c.table[i].second);
             return;
     }
     throw SceneError(path + ".law: unknown law");
