@@ -144,15 +144,30 @@ TEST(Extremes, Planet) {
             {up(1.0), E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
-// OPEN (docs/reliability.md): an atmosphere top just above the ground (6360.001 km on the earth
-// preset) is refused by ozone's column_du (a derived requirement: "needs a profile with a
-// non-zero, finite column below the atmosphere top"), not naming planet.atmosphere_top_km.
-TEST(Extremes, DISABLED_PlanetAtmosphereTop) {
+// An atmosphere top just above the ground (6360.001 km on the earth preset) was refused by ozone's
+// column_du ("needs a profile with a non-zero, finite column below the atmosphere top"), naming
+// neither planet.atmosphere_top_km nor a range. Ozone's tent starts 10 km up and its column_du is
+// spread over the part below the top: the top must now be > 6370 km, and the refusal says so.
+TEST(Extremes, PlanetAtmosphereTop) {
     sweep({"planet.atmosphere_top_km",
            [](const std::string& v) { return kBase + "[planet]\nradius_km = 6360\natmosphere_top_km = " + v + "\n"; },
-           {{6360.0, E::refuse}, {up(6360.0), E::either}, {6360.001, E::accept}, {6420.0, E::accept},
-            {2e6, E::accept}, {up(2e6), E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse},
-            {-6420.0, E::refuse}}});
+           {{6360.0, E::refuse}, {up(6360.0), E::refuse}, {6360.001, E::refuse}, {6370.0, E::refuse},
+            {up(6370.0), E::either}, {6370.001, E::accept}, {6420.0, E::accept}, {2e6, E::accept},
+            {up(2e6), E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}, {-6420.0, E::refuse}}});
+    // Without ozone (Rayleigh and Mie are exponential: density from the ground up) a top 1 m above
+    // the ground is a valid, nearly transparent atmosphere.
+    sweep({"planet.atmosphere_top_km",
+           [](const std::string& v) {
+               return "[planet]\nradius_km = 6360\natmosphere_top_km = " + v +
+                      "\n[sun]\nelevation_deg = 15\nirradiance = { type = \"constant\", value_w_m2_nm = 1.5 }\n"
+                      "[spectrum]\nbasis = \"rgb-schuler\"\n"
+                      "[[constituent]]\nname = \"rayleigh\"\nprofile = { type = \"exponential\", scale_height_km = 8 }\n"
+                      "scattering = { law = \"rayleigh\", value_per_m_at_1um = 1.24062e-6 }\nphase = { type = \"rayleigh\" }\n"
+                      "[[constituent]]\nname = \"mie\"\nprofile = { type = \"exponential\", scale_height_km = 1.2 }\n"
+                      "extinction = { law = \"angstrom\", beta = 5.328e-3, alpha = 0.0 }\nsingle_scattering_albedo = 0.9\n"
+                      "phase = { type = \"cornette-shanks\", g = 0.8 }\n";
+           },
+           {{6360.0, E::refuse}, {up(6360.0), E::either}, {6360.001, E::accept}, {6360.1, E::accept}}});
 }
 
 // sun.distance_au of 1e-300 or a denormal was refused naming the scaled irradiance (= inf), and
@@ -241,27 +256,26 @@ std::string mie_profile(const std::string& profile) {
 }
 
 TEST(Extremes, ExponentialScaleHeight) {
-    // OPEN (docs/reliability.md): a denormal scale height is refused naming the derived
-    // scattering.value_per_m = inf (Angstrom beta / column), so it is not swept here.
     const auto toml = [](const std::string& v) {
         return mie_profile("{ type = \"exponential\", scale_height_km = " + v + " }");
     };
     sweep({"profile.scale_height_km", toml,
-           {{0.0, E::refuse}, {-1.0, E::refuse}, {1e-300, E::either}, {1e-30, E::either}, {1e-12, E::either},
-            {1e-9, E::either}, {1e-6, E::either}, {1e-3, E::accept}, {1.2, E::accept}, {1e3, E::accept},
-            {1e6, E::accept}, {1e9, E::either}, {1e30, E::either}, {1e300, E::either}, {kInf, E::refuse},
-            {kNaN, E::refuse}}});
+           {{0.0, E::refuse}, {-1.0, E::refuse}, {kDenorm, E::refuse}, {1e-300, E::refuse}, {1e-30, E::refuse},
+            {1e-12, E::refuse}, {1e-6, E::refuse}, {down(1e-3), E::refuse}, {1e-3, E::accept}, {1.2, E::accept},
+            {1e3, E::accept}, {1e6, E::accept}, {1e9, E::accept}, {up(1e9), E::refuse}, {1e30, E::refuse},
+            {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
 // Issue 17's known bug: scale_height_km = 1e-30 rendered a sky with non-finite pixels (exit 0).
-// Root cause: the multiple-scattering kernels' fast_exp(x) (multiple_scattering_kernels.inc) for
-// x below about -1.2e7: the float-to-int shift overflowed int32 (UB; UBSan: signed integer
-// overflow) and gave garbage or NaN. Such a scale height puts beta/column = 5e24 m^-1 on the
-// layer, so optical depths of ~1e30 reach it. With multiple scattering on, as the CLI renders.
-// OPEN (docs/reliability.md): with that fixed (no UB, no NaN), the sky still has +inf pixels
-// (half of them for mie, 1/12 for rayleigh at 32x16): the sky is not yet finite.
-TEST(Extremes, DISABLED_TinyScaleHeightWithMultipleScattering) {
+// First cause: the multiple-scattering kernels' fast_exp(x) (multiple_scattering_kernels.inc)
+// for x below about -1.2e7 overflowed int32 (UB; UBSan: signed integer overflow); fixed. With
+// that fixed the sky still had +inf pixels (half of them for mie, 1/12 for rayleigh at 32x16):
+// a layer of 1e-27 m carries optical depths and (Angstrom law) coefficients ~1e30, beyond float.
+// Scale heights below 1 m are now refused naming the field and the bound; from 1 m up the sky
+// with multiple scattering (as the CLI renders) is finite and non-negative.
+TEST(Extremes, TinyScaleHeightWithMultipleScattering) {
     for (const char* name : {"mie", "rayleigh"}) {
+        SCOPED_TRACE(name);
         static std::string n;
         n = name;
         sweep({"profile.scale_height_km",
@@ -269,7 +283,8 @@ TEST(Extremes, DISABLED_TinyScaleHeightWithMultipleScattering) {
                    return kBase + "[[constituent]]\nname = \"" + n + "\"\nprofile = { type = \"exponential\", " +
                           "scale_height_km = " + v + " }\n";
                },
-               {{1e-30, E::either}, {1e-300, E::either}},
+               {{kDenorm, E::refuse}, {1e-300, E::refuse}, {1e-30, E::refuse}, {down(1e-3), E::refuse},
+                {1e-3, E::accept}, {1e-2, E::accept}},
                true});
     }
 }
@@ -286,8 +301,11 @@ TEST(Extremes, ExponentialReferenceAltitude) {
             {-1e30, E::refuse}, {1e300, E::refuse}, {-1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
-// OPEN (docs/reliability.md): non-finite transmittance/radiance for some tent/piecewise-linear/constant extremes; altitudes_km[1] = 10 is refused naming altitudes_km[2]; a constant profile of value 0 is refused by the Angstrom law.
-TEST(Extremes, DISABLED_OtherProfiles) {
+// Were open (issue 17): a denormal tent peak_km (knots closer than rounding) gave NaN transmittance and
+// radiance along a horizontal ray (the piecewise-linear mass: an infinite slope times a rounded 0);
+// altitudes_km[1] = 10 was refused naming only altitudes_km[2]; a constant profile of value 0 under
+// the Angstrom law (beta spread over the column) was refused naming only extinction.beta, no range.
+TEST(Extremes, OtherProfiles) {
     sweep({"profile.peak_km",
            [](const std::string& v) {
                return mie_profile("{ type = \"tent\", bottom_km = 0, peak_km = " + v + ", top_km = 40 }");
@@ -310,16 +328,17 @@ TEST(Extremes, DISABLED_OtherProfiles) {
             {10.0, E::refuse}, {kNaN, E::refuse}}});
     sweep({"profile.value",
            [](const std::string& v) { return mie_profile("{ type = \"constant\", value = " + v + ", top_km = 2 }"); },
-           {{down(0.0), E::refuse}, {0.0, E::accept}, {1.0, E::accept}, {1e30, E::either}, {1e300, E::either},
-            {kInf, E::refuse}, {kNaN, E::refuse}}});
+           {{down(0.0), E::refuse}, {0.0, E::refuse}, {kDenorm, E::either}, {1.0, E::accept}, {1e30, E::either},
+            {1e300, E::either}, {kInf, E::refuse}, {kNaN, E::refuse}}});
 }
 
 std::string mie_coefficient(const std::string& key, const std::string& table) {
     return kBase + "[[constituent]]\nname = \"mie\"\n" + key + " = " + table + "\n";
 }
 
-// OPEN (docs/reliability.md): reference_nm = 1e300 is refused naming the derived scattering at 615 nm = inf, not reference_nm.
-TEST(Extremes, DISABLED_Coefficients) {
+// Was open (issue 17): reference_nm = 1e300 (exponent 10) was refused naming only the derived
+// "scattering at 615 nm = inf"; reference_nm now has a range that keeps the law finite.
+TEST(Extremes, Coefficients) {
     sweep({"scattering.value_per_m",
            [](const std::string& v) {
                return mie_coefficient("scattering", "{ law = \"constant\", value_per_m = " + v + " }");
@@ -339,7 +358,16 @@ TEST(Extremes, DISABLED_Coefficients) {
                                                     ", exponent = 10 }");
            },
            {{0.0, E::refuse}, {kDenorm, E::either}, {1e-30, E::either}, {550.0, E::accept}, {1e30, E::either},
-            {1e300, E::either}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+            {4.4e32, E::accept}, {4.5e32, E::refuse}, {1e300, E::refuse}, {kInf, E::refuse}, {kNaN, E::refuse}}});
+    // The bound: (reference / 445 nm)^10 <= 1e300 (445 nm, the RGB basis' shortest wavelength),
+    // and for exponent -10, (615 nm / reference)^10 <= 1e300.
+    sweep({"reference_nm",
+           [](const std::string& v) {
+               return mie_coefficient("extinction", "{ law = \"power-law\", value_per_m = 4e-6, reference_nm = " + v +
+                                                    ", exponent = -10 }");
+           },
+           {{0.0, E::refuse}, {kDenorm, E::refuse}, {6.1e-28, E::refuse}, {6.2e-28, E::accept}, {550.0, E::accept},
+            {1e300, E::either}, {kInf, E::refuse}}});
     sweep({"alpha",
            [](const std::string& v) {
                return mie_coefficient("extinction", "{ law = \"angstrom\", beta = 0.1, alpha = " + v + " }");
@@ -397,6 +425,64 @@ TEST(Extremes, ChapmanAirmassHugeX) {
     const auto s = chapman_scaled(ChapmanMethod::airmass, 1e300, ZenithAngle<double>::from_degrees(135.0));
     EXPECT_TRUE(std::isfinite(s.mantissa) && s.mantissa > 0.0) << s.mantissa;
     EXPECT_TRUE(std::isfinite(s.log_scale) && s.log_scale > 0.0) << s.log_scale;
+}
+
+}  // namespace
+}  // namespace airmass
+
+namespace airmass {
+namespace {
+
+// Found by fuzz_scene_toml (corpus/scene_toml/crash-tomlplusplus-parse_key-header-line-break.toml):
+// a table header whose '[' is followed by a line break reached toml++ 3.3's parser::parse_key()
+// against its precondition — an assert() abort with assertions on, __builtin_assume (undefined
+// behaviour) in a clang release build. Now a TOML syntax error with the line, like any other.
+TEST(Extremes, TomlHeaderLineBreak) {
+    for (const char* text : {"preset = \"earth\"\n[\nsun]\nelevation_deg = 1.5\n", "[\n", "[[\nconstituent]]\n",
+                             "[ \t\nplanet]\n", "[planet]\nradius_km = 6360\n[\n"}) {
+        SCOPED_TRACE(text);
+        try {
+            (void)parse_scene_toml(text, "header.toml");
+            ADD_FAILURE() << "accepted";
+        } catch (const SceneError& e) {
+            const std::string m = e.what();
+            EXPECT_NE(m.find("header.toml:"), std::string::npos) << m;
+            EXPECT_NE(m.find("TOML syntax error"), std::string::npos) << m;
+        }
+    }
+}
+
+}  // namespace
+}  // namespace airmass
+
+namespace airmass {
+namespace {
+
+// Found by fuzz_scene_toml (corpus/scene_toml/crash-tomlplusplus-non-ascii-whitespace-unreachable.toml):
+// toml++ 3.3 asks is_non_ascii_horizontal_whitespace() about characters outside strings and
+// comments, and that function reaches __builtin_unreachable (UB) for most code points from U+00A1
+// ('µ' in a table header). TOML allows non-ASCII only in strings and comments: elsewhere it is now a
+// TOML syntax error with line and column, before toml++ sees it; strings and comments keep it.
+TEST(Extremes, TomlNonAsciiOutsideStrings) {
+    for (const char* text : {"preset = \"earth\"\n[pla\xc2\xb5m]\n", "preset = \"earth\"\nx\xc3\xa9 = 1\n",
+                             "preset = \"earth\"\n[sun]\nelevation_deg = 1\xc2\xb5\n",
+                             "name = \"\"\"a \\\xc2\xb5\"\"\"\n", "name = \"\"\"a \\\n  \xc2\xb5\"\"\"\n"}) {
+        SCOPED_TRACE(text);
+        try {
+            (void)parse_scene_toml(text, "u.toml");
+            ADD_FAILURE() << "accepted";
+        } catch (const SceneError& e) {
+            const std::string m = e.what();
+            EXPECT_NE(m.find("u.toml:"), std::string::npos) << m;
+            EXPECT_NE(m.find("TOML syntax error: a non-ASCII character"), std::string::npos) << m;
+        }
+    }
+    // In comments and strings (single-line, multi-line, literal) they stay allowed.
+    const Scene s = parse_scene_toml("# \xc2\xb5 \xe2\x86\x92 \xc2\xb0\npreset = \"earth\" # \xc2\xb5\n"
+                                     "name = \"\"\"sky \xc2\xb5\n\xc3\xa9\"\"\"\n",
+                                     "u.toml");
+    EXPECT_EQ(s.name, "sky \xc2\xb5\n\xc3\xa9");
+    EXPECT_EQ(parse_scene_toml("preset = \"earth\"\nname = '\xc2\xb5 \xc3\xa9'\n", "u.toml").name, "\xc2\xb5 \xc3\xa9");
 }
 
 }  // namespace

@@ -524,9 +524,9 @@ TEST(SceneValidate, Constituents) {
     EXPECT_ERROR(with(kMinimal, "name = \"mie\"", "name = \"mie dust\""),
                  "constituent[1].name = \"mie dust\": must be 1-64 characters");
     EXPECT_ERROR(with(kMinimal, "scale_height_km = 8", "scale_height_km = 0"),
-                 "constituent[0].profile.scale_height_km = 0: must be > 0");
+                 "constituent[0].profile.scale_height_km = 0: must be in [0.001, 1000000000] (1 m to 1e9 km)");
     EXPECT_ERROR(with(kMinimal, "value_per_m = 4e-6", "value_per_m = -4e-6"),
-                 "constituent[1].scattering.value_per_m = -4e-06: must be >= 0");
+                 "constituent[1].scattering.value_per_m = -4e-06: must be in [0, 1e+300]");
     EXPECT_ERROR(with(kMinimal, "value_per_m_at_1um = 1.24062e-6", "value_per_m_at_1um = -1"),
                  "constituent[0].scattering.value_per_m_at_1um = -1: must be >= 0");
     EXPECT_ERROR(with(kMinimal, "law = \"constant\"", "law = \"linear\""),
@@ -575,7 +575,8 @@ absorption = { law = "table", wavelengths_nm = [400, 510, 600, 700], values_per_
         "cross_sections_m2 need exactly one of number_density_per_m3 or column_du");
     EXPECT_ERROR(with(ozone, "type = \"tent\", bottom_km = 10, peak_km = 25, top_km = 40",
                       "type = \"piecewise-linear\", altitudes_km = [10, 5], densities = [1, 1]"),
-                 "constituent[2].profile.altitudes_km[1] = 5: must be > altitudes_km[0] (10): altitudes must increase");
+                 "constituent[2].profile.altitudes_km[1] = 5: must be > constituent[2].profile.altitudes_km[0] (10): altitudes "
+                 "must increase");
     EXPECT_ERROR(with(ozone, "type = \"tent\", bottom_km = 10, peak_km = 25, top_km = 40", "type = \"gaussian\""),
                  "constituent[2].profile.type = \"gaussian\": must be one of");
     // Ångström needs a column inside the atmosphere: a tent above the top has none.
@@ -583,7 +584,10 @@ absorption = { law = "table", wavelengths_nm = [400, 510, 600, 700], values_per_
         with(with(ozone, "bottom_km = 10, peak_km = 25, top_km = 40", "bottom_km = 70, peak_km = 80, top_km = 90"),
              "law = \"table\", wavelengths_nm = [400, 510, 600, 700], values_per_m = [1e-7, 1e-6, 2e-6, 1e-6]",
              "law = \"angstrom\", beta = 0.1, alpha = 1");
-    EXPECT_ERROR(high_tent, "constituent[2].absorption.beta: needs a profile with a non-zero, finite column");
+    // The top is what is out of range: the refusal names it and its bound (radius + 70 km).
+    EXPECT_ERROR(high_tent, "planet.atmosphere_top_km = 6420: must be > 6430 (planet.radius_km + 70 km, where ");
+    EXPECT_ERROR(high_tent, " km, where constituent[2].profile's density begins: constituent[2].absorption.beta is "
+                            "spread over the profile's column below the top)");
 }
 
 TEST(SceneValidate, MessagesPointAtTheLine) {

@@ -12,13 +12,29 @@
 //      line where the field was written.
 #include "airmass/scene_io.hpp"
 
+// toml++ 3.3 (Debian 12) states its parser's preconditions as TOML_ASSERT_ASSUME: an assert()
+// without NDEBUG, __builtin_assume under clang with NDEBUG. One of them is false on valid-looking
+// bad input: a table header whose '[' is followed by a line break ("[\nsun]", found by
+// fuzz_scene_toml) reaches parser::parse_key() on the '\n' — an abort with assertions on,
+// undefined behaviour in a clang release build. The very next lines of parse_key() are the
+// parser's own error path ("expected bare key starting character or string delimiter"), so its
+// asserts and assumptions are compiled to nothing here (this file is the only one that includes
+// toml++): such input becomes a toml::parse_error, reported below as a TOML syntax error with
+// its line and column. Regression: Extremes.TomlHeaderLineBreak, corpus/scene_toml/crash-*.
+#pragma push_macro("NDEBUG")
+#undef NDEBUG
+#undef TOML_ASSERT
+#define TOML_ASSERT(expr) static_assert(true)
 #include <toml++/toml.h>
+#pragma pop_macro("NDEBUG")
+#include <cassert>  // assert() as NDEBUG says again
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -52,6 +68,9 @@ constexpr double kMaxRadiusKm = 1e6;
 constexpr double kMaxAngularRadiusDeg = 5.0;
 constexpr double kMinRadiusKm = 1.0;
 constexpr double kMaxReferenceScaleHeights = 50.0;
+constexpr double kMinScaleHeightKm = 1e-3;
+constexpr double kMaxScaleHeightKm = 1e9;
+constexpr double kMaxCoefficientPerM = 1e300;
 // Spectral irradiance bounds, W m^-2 nm^-1: as written (at 1 AU; the Sun peaks near 2.1), and at
 // the planet after the 1/distance^2 scaling (distance >= 1e-3 AU). Above them float radiances
 // overflow to +inf (issue 17: 1e300 rendered +inf pixels).
@@ -167,7 +186,14 @@ void validate_profile(const std::string& path, const DensityProfile& p) {
     const auto km = [](double m) { return m / kMetresPerKm; };
     switch (p.kind) {
         case DensityProfile::Kind::exponential:
-            require_positive(path + ".scale_height_km", km(p.scale_height_m));
+            // Thinner layers (1e-30 km, a denormal: issue 17) pushed the optical depths and the
+            // Angstrom law's beta / column (proportional to 1/H) beyond float's range: +inf sky pixels.
+            // Huge ones (1.8e308 m, found by fuzz_scene_json) gave NaN transmittance: bounded at
+            // 1e9 km, a thousand times the largest planet radius (a constant density long before).
+            require_range(std::isfinite(p.scale_height_m) && km(p.scale_height_m) >= kMinScaleHeightKm &&
+                              km(p.scale_height_m) <= kMaxScaleHeightKm,
+                          path + ".scale_height_km", km(p.scale_height_m),
+                          "must be in [" + num(kMinScaleHeightKm) + ", " + num(kMaxScaleHeightKm) + "] (1 m to 1e9 km)");
             // exp(h_ref / H) scales the density at the ground: beyond ±50 scale heights the
             // column overflowed or vanished and a derived field (extinction.beta) was refused.
             require_range(std::isfinite(p.reference_altitude_m) &&
@@ -194,7 +220,7 @@ void validate_profile(const std::string& path, const DensityProfile& p) {
                 require_finite(ap, a);
                 if (i > 0)
                     require_range(p.knots[i].first > p.knots[i - 1].first, ap, a,
-                                  "must be > altitudes_km[" + std::to_string(i - 1) + "] (" +
+                                  "must be > " + path + ".altitudes_km[" + std::to_string(i - 1) + "] (" +
                                       num(km(p.knots[i - 1].first)) + "): altitudes must increase");
                 require_non_negative(path + ".densities[" + std::to_string(i) + "]", p.knots[i].second);
             }
@@ -210,17 +236,59 @@ void validate_profile(const std::string& path, const DensityProfile& p) {
     throw SceneError(path + ".type: unknown profile kind");
 }
 
+// The lowest altitude where the profile's density is > 0 (-inf: everywhere; +inf: nowhere).
+double lowest_density_altitude_m(const DensityProfile& p) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential: return -inf;
+        case DensityProfile::Kind::tent: return p.bottom_m;
+        case DensityProfile::Kind::piecewise_linear:
+            for (std::size_t i = 0; i < p.knots.size(); ++i)
+                if (p.knots[i].second > 0.0) return i == 0 ? p.knots[0].first : p.knots[i - 1].first;
+            return inf;
+        case DensityProfile::Kind::constant: return p.value > 0.0 ? p.bottom_m : inf;
+    }
+    return inf;
+}
+
+void require_coefficient(const std::string& path, double v) {
+    require_range(std::isfinite(v) && v >= 0.0 && v <= kMaxCoefficientPerM, path, v,
+                  "must be in [0, " + num(kMaxCoefficientPerM) + "]");
+}
+
 void validate_coefficient(const std::string& path, const SpectralCoefficient& c, double need_lo_nm, double need_hi_nm) {
     switch (c.law) {
-        case SpectralCoefficient::Law::constant: require_non_negative(path + ".value_per_m", c.value_per_m); return;
+        // Coefficients up to 1e300 per m: DBL_MAX scattering plus DBL_MAX absorption overflowed the
+        // extinction to inf and gave NaN transmittance (fuzz_scene_json, 2026-12-02).
+        case SpectralCoefficient::Law::constant: require_coefficient(path + ".value_per_m", c.value_per_m); return;
         case SpectralCoefficient::Law::power_law:
-            require_non_negative(path + ".value_per_m", c.value_per_m);
+            require_coefficient(path + ".value_per_m", c.value_per_m);
             require_positive(path + ".reference_nm", c.reference_nm);
             require_range(std::isfinite(c.exponent) && std::abs(c.exponent) <= kMaxExponent, path + ".exponent",
                           c.exponent, "must be in [-" + num(kMaxExponent) + ", " + num(kMaxExponent) + "]");
+            // σ(λ) = value · (λ / reference)^−exponent must stay finite over the spectrum: a
+            // reference of 1e300 nm with exponent 10 gave σ = inf, refused naming only the derived
+            // "scattering at 615 nm" (issue 17, extremes). The factor's bound F gives reference's range.
+            if (c.exponent != 0.0) {
+                const double F = std::min(1e300, c.value_per_m > 1.0 ? kMaxCoefficientPerM / c.value_per_m : 1e300);
+                const double root = std::pow(F, 1.0 / std::abs(c.exponent));
+                if (c.exponent > 0.0) {
+                    const double max_ref = need_lo_nm * root;
+                    require_range(c.reference_nm <= max_ref, path + ".reference_nm", c.reference_nm,
+                                  "must be <= " + num(max_ref) + " with exponent " + num(c.exponent) +
+                                      " (beyond, the coefficient at " + num(need_lo_nm) + " nm is not finite)");
+                } else {
+                    const double min_ref = need_hi_nm / root;
+                    require_range(c.reference_nm >= min_ref, path + ".reference_nm", c.reference_nm,
+                                  "must be >= " + num(min_ref) + " with exponent " + num(c.exponent) +
+                                      " (below, the coefficient at " + num(need_hi_nm) + " nm is not finite)");
+                }
+            }
             return;
         case SpectralCoefficient::Law::table:
             check_table(path, c.table, "values_per_m", need_lo_nm, need_hi_nm);
+            for (std::size_t i = 0; i < c.table.size(); ++i)
+                require_coefficient(path + ".values_per_m[" + std::to_string(i) + "]", c.table[i].second);
             return;
     }
     throw SceneError(path + ".law: unknown law");
@@ -492,6 +560,7 @@ public:
         s.name = r.opt_string("name").value_or(default_name);
         s.planet = planet(r.table("planet"));
         thickness_m_ = s.planet.atmosphere_top_m - s.planet.radius_m;
+        radius_km_ = s.planet.radius_m / kMetresPerKm;
         if (const toml::table* t = r.opt_table("sun")) s.sun = sun(*t);
         if (const toml::table* t = r.opt_table("observer")) s.observer = observer(*t);
         if (const toml::table* t = r.opt_table("camera")) s.camera = camera(*t);
@@ -732,13 +801,44 @@ private:
     SpectralCoefficient coefficient(const toml::table& t, const std::string& path, const DensityProfile& prof) {
         TableReader r(t, path, sources_);
         SpectralCoefficient c;
-        const auto column_m = [&](std::string_view what) {
+        // The law spreads `what` over the profile's column below the atmosphere's top: a column of
+        // 0 or inf is refused naming the field that is out of range (issue 17, extremes).
+        const auto column_m = [&](std::string_view what, double amount) {
             const double col = vertical_column_m(prof, thickness_m_);
-            if (!(std::isfinite(col) && col > 0.0))
+            const std::string profile_path = path.substr(0, path.rfind('.')) + ".profile";
+            const std::string needs = r.key_path(what) + " is spread over the profile's column below the top";
+            if (std::isfinite(col) && col > 0.0) {
+                if (std::isfinite(amount / col)) return col;
+                // A column so thin (a denormal density) that amount / column overflows.
+                const double least = amount / std::numeric_limits<double>::max();
+                if (prof.kind == DensityProfile::Kind::constant)
+                    r.fail(t.get(what), what,
+                           ": " + profile_path + ".value = " + num(prof.value) + ": must be >= " +
+                               num(least / (col / prof.value)) + " (" + needs + ")");
+                r.fail(t.get(what), what, ": " + profile_path + "'s column below the top (" + num(col) +
+                                              " m) must be >= " + num(least) + " m (" + needs + ")");
+            }
+            if (std::isfinite(col)) {
+                const double bottom_m = lowest_density_altitude_m(prof);
+                // Density only above the top (the earth preset's ozone, from 10 km, under a top
+                // 1 m above the ground): the top is out of range.
+                if (std::isfinite(bottom_m) && bottom_m >= thickness_m_ && bottom_m >= 0.0) {
+                    const auto src = sources_.find(std::string("planet.atmosphere_top_km"));
+                    throw LocatedError((src != sources_.end() ? where(src->second) : std::string()) +
+                                       "planet.atmosphere_top_km = " + num(radius_km_ + thickness_m_ / kMetresPerKm) +
+                                       ": must be > " + num(radius_km_ + bottom_m / kMetresPerKm) +
+                                       " (planet.radius_km + " + num(bottom_m / kMetresPerKm) + " km, where " +
+                                       profile_path + "'s density begins: " + needs + ")");
+                }
+                if (prof.kind == DensityProfile::Kind::constant)
+                    r.fail(t.get(what), what, ": " + profile_path + ".value = " + num(prof.value) + ": must be > 0 (" +
+                                                  needs + ")");
                 r.fail(t.get(what), what,
-                       ": needs a profile with a non-zero, finite column below the atmosphere top (column = " +
-                           num(col) + " m)");
-            return col;
+                       ": " + profile_path + " must have density between the ground and the atmosphere top (0 and " +
+                           num(thickness_m_ / kMetresPerKm) + " km; its column there is 0 m: " + needs + ")");
+            }
+            r.fail(t.get(what), what, ": " + profile_path + "'s column below the atmosphere top (" + num(col) +
+                                          " m) must be finite: its densities are too large");
         };
         const auto non_negative = [&](std::string_view key) {
             const double v = r.number(key);
@@ -768,7 +868,7 @@ private:
             const double alpha = r.number("alpha");
             require_range(std::isfinite(alpha) && std::abs(alpha) <= kMaxExponent, r.key_path("alpha"), alpha,
                           "must be in [-" + num(kMaxExponent) + ", " + num(kMaxExponent) + "]");
-            c.value_per_m = beta / column_m("beta");
+            c.value_per_m = beta / column_m("beta", beta);
             c.reference_nm = 1000.0;
             c.exponent = alpha;
         } else if (law == "table") {
@@ -798,7 +898,8 @@ private:
                     // Number density at density 1 such that ∫ n ρ(h) dh = column (Bruneton's
                     // kMaxOzoneNumberDensity = 300 DU / 15 km for the ozone tent).
                     require_non_negative(r.key_path("column_du"), *column_du);
-                    n_per_m3 = *column_du * kMoleculesPerM2PerDobson / column_m("column_du");
+                    n_per_m3 = *column_du * kMoleculesPerM2PerDobson /
+                               column_m("column_du", *column_du * kMoleculesPerM2PerDobson);
                 }
                 std::vector<double> v(cross->size());
                 for (std::size_t i = 0; i < v.size(); ++i) v[i] = (*cross)[i] * n_per_m3;
@@ -901,7 +1002,7 @@ private:
     }
 
     SourceMap& sources_;
-    double thickness_m_ = 0.0;
+    double thickness_m_ = 0.0, radius_km_ = 0.0;
     double basis_lo_nm_ = 0.0, basis_hi_nm_ = 0.0;
 };
 
@@ -918,7 +1019,77 @@ std::optional<std::string_view> embedded_preset(std::string_view name) {
 
 std::string preset_source_name(std::string_view name) { return "<preset " + std::string(name) + ">"; }
 
+// toml++ 3.3's is_non_ascii_horizontal_whitespace() reaches TOML_UNREACHABLE (__builtin_unreachable:
+// undefined behaviour) for most code points from U+00A1 on, e.g. 'µ' (found by fuzz_scene_toml: a
+// table header "[plaµm)"). The parser asks it about characters outside strings and comments, after
+// a backslash in a multi-line string, and at the start of a line continued by a line-ending
+// backslash. TOML allows non-ASCII characters only inside strings and comments, and none of its
+// escapes is one, so those are refused here first, as TOML syntax errors with line and column.
+// (Only a non-ASCII character right after a line-ending backslash's whitespace is valid TOML.)
+void refuse_misplaced_non_ascii(std::string_view text, std::string_view source_name) {
+    enum class In { code, comment, basic, literal, ml_basic, ml_literal } in = In::code;
+    std::size_t line = 1, line_start = 0;
+    const auto fail = [&](std::size_t i, const char* what) {
+        throw LocatedError(std::string(source_name) + ":" + std::to_string(line) + ":" +
+                           std::to_string(i - line_start + 1) + ": TOML syntax error: a non-ASCII character " + what);
+    };
+    const auto at = [&](std::size_t i, std::string_view s) { return text.substr(i, s.size()) == s; };
+    const auto newline = [&](std::size_t i) { ++line; line_start = i + 1; };
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const unsigned char ch = static_cast<unsigned char>(text[i]);
+        if (ch == '\n') newline(i);
+        switch (in) {
+            case In::code:
+                if (ch >= 0x80) fail(i, "outside a string or comment");
+                if (ch == '#') in = In::comment;
+                else if (at(i, "\"\"\"")) in = In::ml_basic, i += 2;
+                else if (at(i, "'''")) in = In::ml_literal, i += 2;
+                else if (ch == '"') in = In::basic;
+                else if (ch == '\'') in = In::literal;
+                break;
+            case In::comment:
+                if (ch == '\n') in = In::code;
+                break;
+            case In::literal:
+                if (ch == '\'' || ch == '\n') in = In::code;
+                break;
+            case In::ml_literal:
+                if (at(i, "'''")) {
+                    in = In::code;
+                    i += 2;
+                    while (i + 1 < text.size() && text[i + 1] == '\'') ++i;  // up to two quotes of content
+                }
+                break;
+            case In::basic:
+            case In::ml_basic:
+                if (ch == '\\') {
+                    if (i + 1 >= text.size()) break;
+                    if (static_cast<unsigned char>(text[i + 1]) >= 0x80) fail(i + 1, "after a backslash");
+                    if (in == In::ml_basic && (text[i + 1] == ' ' || text[i + 1] == '\t' || text[i + 1] == '\r' ||
+                                               text[i + 1] == '\n')) {
+                        // a line-ending backslash: the whitespace after it is skipped
+                        while (i + 1 < text.size() && (text[i + 1] == ' ' || text[i + 1] == '\t' ||
+                                                       text[i + 1] == '\r' || text[i + 1] == '\n'))
+                            if (text[++i] == '\n') newline(i);
+                        if (i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) >= 0x80)
+                            fail(i + 1, "right after a line-ending backslash (not supported by toml++ 3.3)");
+                        break;
+                    }
+                    if (text[++i] == '\n') newline(i);
+                } else if (in == In::basic && (ch == '"' || ch == '\n')) {
+                    in = In::code;
+                } else if (in == In::ml_basic && at(i, "\"\"\"")) {
+                    in = In::code;
+                    i += 2;
+                    while (i + 1 < text.size() && text[i + 1] == '"') ++i;
+                }
+                break;
+        }
+    }
+}
+
 toml::table parse_toml(std::string_view text, std::string_view source_name) {
+    refuse_misplaced_non_ascii(text, source_name);
     try {
         return toml::parse(text, source_name);
     } catch (const toml::parse_error& e) {

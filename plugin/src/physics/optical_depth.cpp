@@ -63,7 +63,11 @@ double piecewise_mass_upward(const CompiledProfile& prof, double R, double p, do
             const double slope = (D[k] - D[k - 1]) / (A[k] - A[k - 1]);
             double piece = D[k - 1] * L;
             if (slope != 0.0) piece += slope * (integral_of_radius(p, s, s_next) - (R + A[k - 1]) * L);
-            mass += std::max(piece, 0.0);
+            // The density on the piece lies between its knots' values, and so does its mean. The
+            // bound also catches the rounding of ∫r ds − (R + A)L times the slope of knots closer
+            // than rounding (a denormal tent peak_km: ∞·0 = NaN; issue 17, extremes).
+            const double lo = std::min(D[k - 1], D[k]) * L, hi = std::max(D[k - 1], D[k]) * L;
+            mass += piece >= lo ? std::min(piece, hi) : lo;
         }
         s = s_next;
         ++k;
