@@ -4,7 +4,7 @@
 # Create Atmosphere Volume), Cycles CPU, no denoiser. Not part of the main job (tens of minutes).
 #
 #   scripts/showcase.sh [--build DIR] [--out DIR] [--png DIR] [--only a,b] [--width W] [--height H]
-#                       [--samples-scale F] [--seeds K] [--no-doc]
+#                       [--samples-scale F] [--seeds K] [--no-doc] [--finish-only]
 #
 #   --build DIR        build folder holding addon/airmass_blender.zip (default build)
 #   --out DIR          linear EXRs, per-seed renders, JSON summaries (default out/showcase; keep it out of git)
@@ -14,6 +14,7 @@
 #   --samples-scale F  multiply every scene's samples by F (e.g. 0.05 to check the script quickly)
 #   --seeds K          independent renders per scene (default 2; the noise is their standard error)
 #   --no-doc           leave docs/gallery.md's table alone
+#   --finish-only      no rendering: remake the PNGs, noise and table from the renders in --out
 #
 # Per scene: K Blender runs (seed 0 … K−1; seed 0 also writes the sky mask), then
 # scripts/showcase/finish.py (Debian's python3 + OpenImageIO + matplotlib) makes the mean image,
@@ -23,7 +24,7 @@
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-BUILD=build OUT=out/showcase PNG=docs/images/gallery ONLY="" WIDTH=960 HEIGHT=540 SCALE=1 SEEDS=2 DOC=1
+BUILD=build OUT=out/showcase PNG=docs/images/gallery ONLY="" WIDTH=960 HEIGHT=540 SCALE=1 SEEDS=2 DOC=1 FINISH_ONLY=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --build) BUILD=$2; shift 2 ;;
@@ -35,7 +36,8 @@ while [ $# -gt 0 ]; do
     --samples-scale) SCALE=$2; shift 2 ;;
     --seeds) SEEDS=$2; shift 2 ;;
     --no-doc) DOC=0; shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    --finish-only) FINISH_ONLY=1; shift ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "showcase: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -57,10 +59,10 @@ export BLENDER_USER_CONFIG=$USERDIR/config BLENDER_USER_SCRIPTS=$USERDIR/scripts
 
 # name | title | samples per seed (at scale 1) | exposure (EV)
 SCENES=(
-  "terrain_volume|Mountains at golden hour, Airmass volume|96|1.0"
-  "terrain_sky|The same mountains, Airmass sky texture only|64|1.0"
-  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|96|5.0"
-  "limb_vdb|The limb from 400 km, VDB volume|64|0.0"
+  "terrain_sky|The same mountains, Airmass sky texture only|8|-2.4"
+  "terrain_volume|Mountains at golden hour, Airmass volume|6|-2.5"
+  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|10|1.5"
+  "limb_vdb|The limb from 400 km, VDB volume|10|-4.6"
 )
 
 status=0
@@ -68,8 +70,8 @@ for entry in "${SCENES[@]}"; do
   IFS='|' read -r name title samples ev <<<"$entry"
   if [ -n "$ONLY" ] && [[ ",$ONLY," != *",$name,"* ]]; then continue; fi
   n=$(/usr/bin/python3 -c "import sys; print(max(1, round(float(sys.argv[1]) * float(sys.argv[2]))))" "$samples" "$SCALE")
-  rm -f "$OUT/${name}"_seed*.exr "$OUT/${name}"_seed*.json
-  for ((k = 0; k < SEEDS; k++)); do
+  [ "$FINISH_ONLY" -eq 1 ] || rm -f "$OUT/${name}"_seed*.exr "$OUT/${name}"_seed*.json
+  for ((k = 0; k < SEEDS && FINISH_ONLY == 0; k++)); do
     mask=(); [ "$k" -eq 0 ] && mask=(--mask)
     echo "showcase: $name seed $k ($WIDTH × $HEIGHT, $n samples)"
     blender -b --factory-startup --python-exit-code 1 --python "$ROOT/scripts/showcase/render_scene.py" -- \

@@ -15,7 +15,7 @@ scene, built with plain Blender (a grid, a Displace modifier with a procedural t
 
 Scenes (scripts/showcase.sh, docs/gallery.md):
   terrain_volume  mountains, golden hour (sun 5°), analytic volume, black World, Sun lamp
-  sunset_shadow   sun 2.5° below the horizon, looking away from it: the Earth's shadow and
+  sunset_shadow   sun 1° below the horizon, looking away from it: the Earth's shadow and
                   the Belt of Venus; analytic volume of the whole planet
   limb_vdb        the planet's limb from 400 km, VDB volume of the camera's view region
   terrain_sky     the terrain of terrain_volume lit by Generate Sky's texture + the synced
@@ -184,7 +184,7 @@ def terrain_common(scene, s):
 
 def scene_terrain_volume(scene, s):
     terrain_common(scene, s)
-    s.volume_region, s.view_distance, s.step_km = "VIEW", 400.0, 1.0
+    s.volume_region, s.view_distance, s.step_km = "VIEW", 300.0, 3.0
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="ANALYTIC")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
@@ -203,9 +203,9 @@ def scene_terrain_sky(scene, s):
 
 
 def scene_sunset_shadow(scene, s):
-    s.sun_elevation, s.sun_rotation = math.radians(-2.5), math.radians(270.0)
+    s.sun_elevation, s.sun_rotation = math.radians(-1.0), math.radians(270.0)
     camera(scene, (0.0, 0.0, 0.002), pitch_deg=18.0, heading_deg=90.0, lens=24.0)
-    s.volume_region, s.step_km = "PLANET", 2.0
+    s.volume_region, s.step_km = "PLANET", 4.0
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="ANALYTIC")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
@@ -217,7 +217,7 @@ def scene_limb_vdb(scene, s):
     dip = math.degrees(math.acos(R_EARTH / (R_EARTH + h)))
     s.sun_elevation, s.sun_rotation = math.radians(12.0), math.radians(35.0)
     camera(scene, (0.0, 0.0, h), pitch_deg=-dip + 7.0, heading_deg=0.0, lens=22.0)
-    s.volume_region, s.view_distance, s.step_km = "VIEW", 3300.0, 4.0
+    s.volume_region, s.view_distance, s.step_km = "VIEW", 3300.0, 8.0
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="VDB")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
