@@ -23,9 +23,11 @@ Scenes (scripts/showcase.sh, docs/gallery.md):
 """
 
 import argparse
+import atexit
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -56,6 +58,8 @@ REPORTS = []
 
 def install_addon(zip_path):
     tmp = tempfile.mkdtemp(prefix="airmass-showcase-")
+    # The installed add-on and the Output Folder (the sky EXR, the VDB files): removed on exit.
+    atexit.register(shutil.rmtree, tmp, True)
     fp = bpy.context.preferences.filepaths
     if hasattr(fp, "script_directories"):  # Blender 4.2+
         fp.script_directories.new().directory = tmp
