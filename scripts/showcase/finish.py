@@ -35,6 +35,7 @@ import report  # noqa: E402  compare/report.py: images, statistics
 
 BOUND = 0.02  # the gallery's noise bound over the sky (issue 19)
 CAPTION_PX = 58  # height of the caption band under the image
+MAX_PNG_BYTES = 600 * 1024  # above this the PNG gets a 256-colour palette (shrink_png)
 
 
 def tone_map(img, ev):
@@ -127,6 +128,24 @@ def caption_lines(sm):
     return [line1, line2, line3]
 
 
+def shrink_png(path, limit=MAX_PNG_BYTES):
+    """A noisy image does not compress: above the limit the PNG is stored with a 256-colour
+    palette (Pillow's median cut, no dithering), atomically. Returns whether it was."""
+    if os.path.getsize(path) <= limit:
+        return False
+    from PIL import Image
+    tmp = path + ".tmp.png"
+    try:
+        with Image.open(path) as im:
+            im.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT,
+                                       dither=Image.Dither.NONE).save(tmp, optimize=True)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return True
+
+
 def write_exr_mean(path, img):
     oiio = report.B.oiio
     h, w = img.shape[:2]
@@ -185,6 +204,7 @@ def main():
     write_exr_mean(os.path.join(a.out, a.scene + ".exr"), mean)
     os.makedirs(os.path.dirname(os.path.abspath(a.png)), exist_ok=True)
     report.write_png(a.png, caption_image(tone_map(mean, a.ev), caption_lines(sm)))
+    sm["png_palette"] = shrink_png(a.png)
     sm["png"] = a.png
     sm["png_bytes"] = os.path.getsize(a.png)
     tmp = os.path.join(a.out, a.scene + ".json.tmp")
