@@ -34,7 +34,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "..", "compare"))
 import report  # noqa: E402  compare/report.py: images, statistics
 
 BOUND = 0.02  # the gallery's noise bound over the sky (issue 19)
-CAPTION_PX = 58  # height of the caption band under the image
+CAPTION_PX = 74  # height of the caption band under the image
 MAX_PNG_BYTES = 600 * 1024  # above this the PNG gets a 256-colour palette (shrink_png)
 
 
@@ -121,11 +121,13 @@ def caption_lines(sm):
     line2 = ("%d × %d, %d seeds × %d samples = %d spp, Cycles CPU (Blender %s), no denoiser, bounces: diffuse %d, "
              "volume %d" % (sm["width"], sm["height"], sm["seeds"], sm["samples_per_seed"], sm["samples_per_pixel"],
                             st["blender"], st["diffuse_bounces"], st["volume_bounces"]))
-    line3 = ("render %s (%s per seed) on 2 shared cores; noise (rel. s.e.): sky %.2f %% %s 2 %%, whole image %.2f %%; "
-             "exposure %+.1f EV, 1 − exp(−c), sRGB" % (
+    line3 = ("render %s (%s), 2 shared cores; noise (rel. s.e. of the seeds' mean): "
+             "sky %.2f %% %s 2 %%, whole image %.2f %%" % (
                  fmt_time(total), " + ".join(fmt_time(s) for s in sm["render_seconds"]), 100 * sm["noise_rel_sky"],
-                 "<" if sm["below_bound"] else "≥ (ABOVE the bound)", 100 * sm["noise_rel_image"], sm["exposure_ev"]))
-    return [line1, line2, line3]
+                 "<" if sm["below_bound"] else "≥ (ABOVE the bound)", 100 * sm["noise_rel_image"]))
+    line4 = "PNG: linear × 2^(%+.1f EV), 1 − exp(−c), sRGB; linear EXR in out/showcase/%s.exr" % (
+        sm["exposure_ev"], sm["scene"])
+    return [line1, line2, line3, line4]
 
 
 def shrink_png(path, limit=MAX_PNG_BYTES):
