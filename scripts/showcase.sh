@@ -46,9 +46,15 @@ ZIP="$BUILD/addon/airmass_blender.zip"
 command -v blender >/dev/null || { echo "showcase: blender not found (Debian: apt-get install blender)" >&2; exit 2; }
 /usr/bin/python3 -c 'import numpy, OpenImageIO, matplotlib' 2>/dev/null \
   || { echo "showcase: Debian's python3 needs numpy, OpenImageIO and matplotlib (scripts/setup.sh)" >&2; exit 2; }
-[[ "$SEEDS" =~ ^[0-9]+$ ]] && [ "$SEEDS" -ge 2 ] || { echo "showcase: --seeds must be an integer >= 2, got '$SEEDS'" >&2; exit 2; }
-[[ "$WIDTH" =~ ^[0-9]+$ && "$HEIGHT" =~ ^[0-9]+$ ]] && [ "$WIDTH" -ge 16 ] && [ "$HEIGHT" -ge 9 ] \
-  || { echo "showcase: --width/--height must be integers >= 16 / 9" >&2; exit 2; }
+if ! [[ "$SEEDS" =~ ^[0-9]+$ ]] || [ "$SEEDS" -lt 2 ]; then
+  echo "showcase: --seeds must be an integer >= 2, got '$SEEDS'" >&2; exit 2
+fi
+if ! [[ "$WIDTH" =~ ^[0-9]+$ && "$HEIGHT" =~ ^[0-9]+$ ]] || [ "$WIDTH" -lt 16 ] || [ "$HEIGHT" -lt 9 ]; then
+  echo "showcase: --width/--height must be integers >= 16 / 9, got '$WIDTH' / '$HEIGHT'" >&2; exit 2
+fi
+if ! [[ "$SCALE" =~ ^[0-9]*\.?[0-9]+([eE][-+]?[0-9]+)?$ ]] || ! /usr/bin/python3 -c "import sys; sys.exit(float(sys.argv[1]) <= 0)" "$SCALE"; then
+  echo "showcase: --samples-scale must be a number > 0, got '$SCALE'" >&2; exit 2
+fi
 mkdir -p "$OUT" "$PNG"
 ZIP=$(cd "$(dirname "$ZIP")" && pwd)/$(basename "$ZIP")
 
@@ -61,8 +67,8 @@ export BLENDER_USER_CONFIG=$USERDIR/config BLENDER_USER_SCRIPTS=$USERDIR/scripts
 SCENES=(
   "terrain_sky|The same mountains, Airmass sky texture only|8|-2.4"
   "terrain_volume|Mountains at golden hour, Airmass volume|6|-2.5"
-  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|10|1.5"
-  "limb_vdb|The limb from 400 km, VDB volume|10|-4.6"
+  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|10|-0.5"
+  "limb_vdb|The limb from 400 km, VDB volume|24|-4.6"
 )
 
 status=0
