@@ -56,7 +56,9 @@ def run(cmd, check=True, timeout=900):
 
 
 def scene_file(tmp_path, name, camera, sun=(20.0, 30.0), extra=""):
+    """`camera` = (position in metres, direction, up, fov_deg, width, height); the file takes km."""
     pos, direction, up, fov, w, h = camera
+    pos = [x / 1000.0 for x in pos]
     text = """preset = "earth"
 %s
 [sun]
