@@ -34,24 +34,12 @@ SUMMARY_KEYS = ("mean_rel_err", "p95_rel_err", "max_rel_err", "noise_rel", "bias
                 "blender_seconds", "native_seconds", "reference", "per_channel", "signed_mean_rel_err")
 
 
+from pov_test_io import read_exr, write_exr
+from pov_test_io import run as _run
+
+
 def run(cmd, check=True, cwd=None, timeout=900):
-    p = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout, cwd=cwd)
-    if check and p.returncode != 0:
-        raise AssertionError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stderr[-3000:]}")
-    return p
-
-
-def read_exr(path):
-    buf = oiio.ImageBuf(str(path))
-    assert not buf.has_error, buf.geterror()
-    return buf.get_pixels(oiio.FLOAT)[:, :, :3].astype(np.float64)
-
-
-def write_exr(path, img):
-    out = oiio.ImageOutput.create(str(path))
-    out.open(str(path), oiio.ImageSpec(img.shape[1], img.shape[0], img.shape[2], oiio.FLOAT))
-    out.write_image(img.astype(np.float32))
-    out.close()
+    return _run(cmd, check=check, cwd=cwd, timeout=timeout)
 
 
 @pytest.fixture(scope="module")
