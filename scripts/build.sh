@@ -2,15 +2,22 @@
 # Configure and build Airmass into build/ (the CLI ends up at build/bin/airmass), the Windows C ABI
 # into build-windows/ (scripts/build-windows.sh) and the macOS one into build-macos/
 # (scripts/build-macos.sh), which the add-on zip carries.
-# Warnings are errors when CI is set or AIRMASS_WERROR=ON.
+# Warnings are errors when CI is set or AIRMASS_WERROR=ON. Otherwise a build folder keeps the
+# setting it was configured with: switching between .ci/run (CI) and scripts/run-main.sh used to
+# flip -Werror and so recompile everything.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${AIRMASS_BUILD_DIR:-$root/build}"
-werror="${AIRMASS_WERROR:-$([ -n "${CI:-}" ] && echo ON || echo OFF)}"
+if [ -n "${AIRMASS_WERROR:-}" ]; then werror_arg=(-DAIRMASS_WERROR="$AIRMASS_WERROR")
+elif [ -n "${CI:-}" ]; then werror_arg=(-DAIRMASS_WERROR=ON)
+elif [ ! -f "$build/CMakeCache.txt" ]; then werror_arg=(-DAIRMASS_WERROR=OFF)
+else werror_arg=(); fi
 jobs="${AIRMASS_JOBS:-$(nproc)}"
 mkdir -p "$build"
-cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DAIRMASS_WERROR="$werror" >"$build/configure.log" 2>&1 || {
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "${werror_arg[@]}" >"$build/configure.log" 2>&1 || {
   cat "$build/configure.log" >&2; exit 1; }
+werror="$(sed -n 's/^AIRMASS_WERROR:BOOL=//p' "$build/CMakeCache.txt")"
+werror="${werror:-OFF}"
 # The Windows library first (it reuses the native build's generated Chapman table), so the
 # add-on zip built next carries both platforms.
 cmake --build "$build" -j "$jobs" --target airmass_chapman_table

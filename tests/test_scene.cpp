@@ -548,6 +548,23 @@ TEST(SceneValidate, Constituents) {
                  "TOML syntax error");
 }
 
+// Density x coefficient is the extinction the integrators multiply by path lengths: each may be
+// in range while the product overflows (fuzz_scene_json: a constant density of 1.8e308 times
+// 7e297 per m gave NaN radiance). The product is bounded like a coefficient, naming both fields.
+TEST(SceneValidate, ExtinctionDensityTimesCoefficient) {
+    const std::string constant_mie = with(kMinimal, "profile = { type = \"exponential\", scale_height_km = 1.2 }",
+                                          "profile = { type = \"constant\", value = 1e10 }");
+    EXPECT_NO_THROW(airmass::parse_scene_toml(with(constant_mie, "value_per_m = 4e-6", "value_per_m = 1e290")));
+    EXPECT_ERROR(with(constant_mie, "value_per_m = 4e-6", "value_per_m = 1e291"),
+                 "constituent[1].profile.value (peak density 1e+10) x constituent[1].scattering (1e+291 per m "
+                 "at 440 nm) = 1e+301 per m: must be <= 1e+300");
+    // An exponential profile's density at the ground is exp(reference_altitude / scale_height).
+    const std::string raised = with(kMinimal, "scale_height_km = 1.2 }", "scale_height_km = 1, reference_altitude_km = 46 }");
+    EXPECT_NO_THROW(airmass::parse_scene_toml(with(raised, "value_per_m = 4e-6", "value_per_m = 1e280")));
+    EXPECT_ERROR(with(raised, "value_per_m = 4e-6", "value_per_m = 1e281"),
+                 "constituent[1].profile.reference_altitude_km (peak density 9.496119421e+19) x constituent[1].scattering");
+}
+
 TEST(SceneValidate, ProfilesAndTables) {
     const std::string ozone = kMinimal + R"(
 [[constituent]]

@@ -294,6 +294,40 @@ void validate_coefficient(const std::string& path, const SpectralCoefficient& c,
     throw SceneError(path + ".law: unknown law");
 }
 
+// The profile's largest density over the atmosphere (altitudes >= 0) and the field that sets it.
+std::pair<double, std::string> peak_density(const DensityProfile& p) {
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential:
+            return {std::exp(p.reference_altitude_m / p.scale_height_m), "reference_altitude_km"};
+        case DensityProfile::Kind::tent: return {1.0, "peak_km"};
+        case DensityProfile::Kind::piecewise_linear: {
+            double m = 0.0;
+            for (const auto& k : p.knots) m = std::max(m, k.second);
+            return {m, "densities"};
+        }
+        case DensityProfile::Kind::constant: return {p.value, "value"};
+    }
+    return {0.0, ""};
+}
+
+// Density times coefficient is the extinction the integrators multiply by lengths: each bounded
+// alone, a constant density of 1.8e308 times a coefficient of 7e297 per m overflowed it to +inf
+// and gave NaN radiance (fuzz_scene_json, --runs 20000). Both fields are named.
+void validate_extinction(const std::string& path, const Constituent& c, const std::vector<double>& wavelengths_nm) {
+    const auto [density, density_field] = peak_density(c.profile);
+    for (const auto* which : {"scattering", "absorption"}) {
+        const SpectralCoefficient& k = std::string_view(which) == "scattering" ? c.scattering : c.absorption;
+        for (double nm : wavelengths_nm) {
+            const double product = density * k.at(nm);
+            if (!(product <= kMaxCoefficientPerM))
+                throw SceneError(path + ".profile." + density_field + " (peak density " + num(density) + ") x " + path +
+                                 "." + which + " (" + num(k.at(nm)) + " per m at " + num(nm) + " nm) = " +
+                                 num(product) + " per m: must be <= " + num(kMaxCoefficientPerM) +
+                                 " (lower the density or the coefficient)");
+        }
+    }
+}
+
 void validate_phase(const std::string& path, const PhaseFunction& p) {
     if (p.kind == PhaseFunction::Kind::cornette_shanks || p.kind == PhaseFunction::Kind::henyey_greenstein)
         require_range(std::isfinite(p.g) && p.g > -1.0 && p.g < 1.0, path + ".g", p.g, "must be in (-1, 1)");
@@ -1374,6 +1408,7 @@ void validate(const Scene& scene) {
             validate_coefficient(path + ".scattering", c.scattering, lo, hi);
             validate_coefficient(path + ".absorption", c.absorption, lo, hi);
             validate_phase(path + ".phase", c.phase);
+            validate_extinction(path, c, wl);
         } catch (const SceneError& e) {
             throw SceneError(std::string(e.what()) + " (constituent " + in_quotes(c.name) + ")");
         }
