@@ -206,6 +206,13 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         if reason:
             for line in _wrap(reason, 48):
                 layout.label(text=line, icon="INFO")
+        needed = max((o.get("airmass_transparent_bounces", 0) for o in context.scene.objects
+                      if o.get("airmass_role") == "atmosphere"), default=0)
+        cycles = getattr(context.scene, "cycles", None)
+        if cycles is not None and cycles.transparent_max_bounces < needed:
+            # Lowered after the volume was made: Cycles stops paths at its boundaries (dark volume).
+            layout.label(text="Light Paths > Transparent below %d: the volume renders dark" % needed,
+                         icon="ERROR")
 
 
 class AIRMASS_PT_world_compare(AirmassWorldPanel, bpy.types.Panel):

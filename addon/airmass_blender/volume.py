@@ -276,8 +276,23 @@ def _collection(scene, created):
     return coll
 
 
-def _configure_scene(context, settings, description, step, unit_name):
-    """Units, ray marching and the camera's clip end for a planet-sized volume."""
+# Cycles counts every crossing of a volume's boundary (a surface with no surface shader) as a
+# transparent bounce; a path that runs out of them stops there, so the volume renders dark.
+# Measured in Blender 3.4 (24×14 px, 2 spp, seed 1, each against 64 bounces): the analytic shell
+# renders exactly with 1 or more from the ground and from orbit and is 99 % dark with 0; a VDB
+# view region in 4 overlapping tiles needs 12 (10: 2e-5 off, 6: 3 %, 3: 77 %, 0: black).
+# Enough is 2 per closed boundary a ray can cross plus 4: the shell has two spheres (8, Cycles'
+# default), a VDB volume one box per tile object (2 n + 4, at most Cycles' 1024).
+TRANSPARENT_BOUNCES_KEY = "airmass_transparent_bounces"
+
+
+def transparent_bounces_needed(boundaries):
+    return min(1024, 2 * int(boundaries) + 4)
+
+
+def _configure_scene(context, settings, description, step, unit_name, boundaries=2):
+    """Units, ray marching, transparent bounces and the camera's clip end for a planet-sized
+    volume of `boundaries` closed boundary surfaces."""
     scene = context.scene
     notes = []
     if settings.set_units:
@@ -299,6 +314,12 @@ def _configure_scene(context, settings, description, step, unit_name):
         # Blender 5.0+ without Render → Volumes → Biased: unbiased null scattering; the step
         # rate (still set on the material) and max steps only apply to biased ray marching.
         notes.append("null scattering (unbiased): Step applies with Render > Volumes > Biased")
+    if cycles is not None:
+        needed_bounces = transparent_bounces_needed(boundaries)
+        if cycles.transparent_max_bounces < needed_bounces:
+            notes.append("transparent bounces %d -> %d (rays cross the volume's boundaries; fewer render "
+                         "it dark)" % (cycles.transparent_max_bounces, needed_bounces))
+            cycles.transparent_max_bounces = needed_bounces
     cam = scene.camera
     if cam is not None and cam.type == "CAMERA":
         far = (cam.matrix_world.translation - center).length + top
@@ -401,6 +422,7 @@ class AnalyticPlan(Plan):
             obj = created.add(bpy.data.objects.new(VOLUME_NAME, mesh))
             obj[ROLE] = "atmosphere"
             obj["airmass_mode"] = "ANALYTIC"
+            obj[TRANSPARENT_BOUNCES_KEY] = transparent_bounces_needed(2)
             obj.display_type = "WIRE"
             new = [obj]
             if s.add_ground:
@@ -569,7 +591,11 @@ class VdbPlan(Plan):
                 axis, theta = view_cap(context, s, description, self.unit_m) if self.region == "view" \
                     else ((0.0, 0.0, 1.0), math.pi)
                 new.append(_ground(description, albedo, created, axis, theta))
-            notes = _configure_scene(context, s, description, s.step_km * KM / self.unit_m, self.unit_name)
+            for o in new:
+                if o.get(ROLE) == "atmosphere":
+                    o[TRANSPARENT_BOUNCES_KEY] = transparent_bounces_needed(len(volumes))
+            notes = _configure_scene(context, s, description, s.step_km * KM / self.unit_m, self.unit_name,
+                                     boundaries=len(volumes))
             _swap_in(context, s, new, created)
         except Exception:
             created.remove_all()

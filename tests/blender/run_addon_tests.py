@@ -579,7 +579,10 @@ def test_analytic_volume():
     s.sun_elevation = math.radians(25.0)
     cam = ground_camera(scene, pitch_deg=4.0)
     check(bpy.ops.airmass.sun_sync() == {"FINISHED"}, "sun_sync before the volume")
+    scene.cycles.transparent_max_bounces = 0  # Cycles then stops every path at the shell: dark
     check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "create_volume ANALYTIC failed")
+    check(scene.cycles.transparent_max_bounces == 8, "transparent bounces %d for the shell (want 8)"
+          % scene.cycles.transparent_max_bounces)
     # With a volume in the scene Cycles attenuates the lamp itself: it now carries the
     # top-of-atmosphere irradiance, not the transmitted one.
     props = __import__(ADDON + ".properties", fromlist=["x"])
@@ -682,9 +685,13 @@ def test_vdb_volume():
     s.view_distance = 40.0
     s.voxel_size = 1.0
     ground_camera(scene, pitch_deg=4.0)
+    scene.cycles.transparent_max_bounces = 0  # a user's setting that renders volumes dark
     check(bpy.ops.airmass.create_volume(mode="VDB") == {"FINISHED"}, "create_volume VDB failed")
     objs = _atmosphere_objects(scene)
     check(len(objs) >= 1 and all(o.type == "VOLUME" for o in objs), "volume objects: %s" % objs)
+    # Every tile's box is a boundary Cycles counts as a transparent bounce: raised to 2 per tile + 4.
+    check(scene.cycles.transparent_max_bounces == 2 * len(objs) + 4,
+          "transparent bounces %d for %d tiles" % (scene.cycles.transparent_max_bounces, len(objs)))
     # The add-on wrote the files itself, with this Blender's OpenVDB module (the library has none).
     vdb_host = __import__(ADDON + ".vdb_host", fromlist=["x"])
     pyopenvdb = vdb_host.openvdb_module()
@@ -742,6 +749,13 @@ def test_vdb_volume():
     check(bpy.ops.airmass.generate_sky() == {"FINISHED"}, "sky for the VDB scene")
     rgb, mean, sec = render_tiny(scene, os.path.join(out, "render_vdb.exr"))
     print("    VDB render: mean %.4g, %.2f s" % (mean, sec))
+    # Enough bounces: the same seed with 1024 (Cycles' most) renders the same pixels.
+    raised = scene.cycles.transparent_max_bounces
+    scene.cycles.transparent_max_bounces = 1024
+    rgb_max, _mean, _sec = render_tiny(scene, os.path.join(out, "render_vdb_1024.exr"))
+    worst = max(abs(a - b) for a, b in zip(rgb, rgb_max)) / max(rgb_max)
+    check(worst < 1e-4, "VDB render with %d transparent bounces differs from 1024 by %.3g of the maximum"
+          % (raised, worst))
 
 
 
