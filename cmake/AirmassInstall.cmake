@@ -1,6 +1,6 @@
 # `cmake --install` for projects built on Airmass (issue 17 item 6; docs/install.md):
 #   <prefix>/include/airmass/     the public headers of the libraries below and airmass_c.h
-#   <prefix>/lib/                 libairmass.a, libairmass_volume.a, libairmass_vdb.a (+ libairmass_files.a), libairmass_c.so
+#   <prefix>/lib/                 libairmass.a, libairmass_volume.a, libairmass_vdb.a (+ libairmass_vdb_files.a, libairmass_files.a), libairmass_c.so
 #   <prefix>/lib/cmake/airmass/   airmassConfig.cmake (+ ConfigVersion): find_package(airmass) gives
 #       airmass::airmass     the core (C++20, static; needs glm's headers and threads)
 #       airmass::volume      the OpenVDB-free volume layer (vdb_export's airmass_volume)
@@ -53,7 +53,8 @@ install(EXPORT airmassTargets NAMESPACE airmass:: DESTINATION ${AIRMASS_INSTALL_
 if(TARGET airmass_vdb)
   set_target_properties(airmass_vdb PROPERTIES EXPORT_NAME vdb_export)
   set_target_properties(airmass_files PROPERTIES EXPORT_NAME detail_files)
-  install(TARGETS airmass_vdb airmass_files
+  set_target_properties(airmass_vdb_files PROPERTIES EXPORT_NAME detail_vdb_files)
+  install(TARGETS airmass_vdb airmass_vdb_files airmass_files
           EXPORT airmassVdbTargets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
           INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -68,6 +68,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "vdb_module.hpp"
 #include "pov_scene.hpp"
 #include "render_options.hpp"
 
@@ -685,7 +686,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             const auto t0 = std::chrono::steady_clock::now();
             VdbRunOptions run;
             run.cancel = &cancel;
-            const VdbStats stats = export_vdb(scene, vo, dir / "atmosphere.vdb", run);
+            const VdbStats stats = vdb_module().export_vdb(scene, vo, dir / "atmosphere.vdb", run);
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             json files = json::array();
             for (const auto& f : stats.files) files.push_back(fs::absolute(f).string());

@@ -46,6 +46,7 @@
 #include "airmass/version.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "vdb_module.hpp"
 #include "pov_scene.hpp"
 #include "render_options.hpp"
 
@@ -249,7 +250,7 @@ PovSceneInfo write_pov_scene(const Scene& scene, const CameraModel& cam, const P
         run.cancel = &cancel;
         run.threads = o->threads;
         try {
-            written = export_df3(scene, dv, dir / stem, run);
+            written = vdb_module().export_df3(scene, dv, dir / stem, run);
         } catch (const VdbError& e) {
             throw CliError(o->command + " --path df3: " + e.what());
         }

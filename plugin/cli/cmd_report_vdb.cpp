@@ -19,6 +19,7 @@
 #include "airmass/vdb_export.hpp"
 #include "airmass/vdb_trade.hpp"
 #include "commands.hpp"
+#include "vdb_module.hpp"
 #include "csv.hpp"
 
 namespace airmass::cli {
@@ -65,7 +66,7 @@ void add_report_vdb(CLI::App& report) {
             const auto n = std::size_t(std::lround(f * double(t.voxel_sizes.size())));
             if (n > shown) bar.advance(n - shown), shown = n;
         };
-        const VdbTradeResult r = run_vdb_trade(scene, t);
+        const VdbTradeResult r = vdb_module().run_vdb_trade(scene, t);
         bar.finish();
         write_text_atomic(dir / "vdb_trade_rays.csv", vdb_trade_rays_csv(r));
         write_text_atomic(dir / "vdb_trade_costs.csv", vdb_trade_costs_csv(r));

@@ -27,6 +27,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "vdb_module.hpp"
 
 namespace airmass::cli {
 
@@ -196,7 +197,7 @@ void add_vdb_command(CLI::App& app) {
                     std::printf("vdb: %s region, %s", o->region.c_str(), s.summary().c_str());
                 std::fflush(stdout);
             };
-            const VdbStats stats = export_vdb(scene, opt, o->output.empty() ? "-.vdb" : o->output, run);
+            const VdbStats stats = vdb_module().export_vdb(scene, opt, o->output.empty() ? "-.vdb" : o->output, run);
             if (o->json) {
                 std::printf("%s\n", stats_json(stats).c_str());
             } else if (!o->quiet && !o->dry_run) {
@@ -218,7 +219,7 @@ void add_vdb_command(CLI::App& app) {
         if (!o->df3.empty()) {
             VdbRunOptions run;
             run.cancel = &cancel;
-            for (const auto& f : export_df3(scene, opt, o->df3, run))
+            for (const auto& f : vdb_module().export_df3(scene, opt, o->df3, run))
                 if (!o->quiet) std::printf("vdb: wrote %s\n", f.string().c_str());
         }
     });

@@ -50,11 +50,41 @@ def test_version_is_the_project_version(airmass_bin):
     assert r.returncode == 0, r
     assert r.stdout == "airmass %s\n" % project_version(), r.stdout
     assert r.stderr == ""
-    # CPU time, not wall time (the machine may be loaded): the dynamic loader's work on the ~20
-    # shared libraries the binary links (OpenVDB's relocations most of it) and nothing more; a
+    # CPU time, not wall time (the machine may be loaded): the dynamic loader's work on the ~12
+    # shared libraries the binary links (OpenVDB is not among them: test below) and nothing more; a
     # --version that set up a command or loaded a scene would not stay far below this.
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     assert cpu < 2.0, cpu
+
+
+def test_start_loads_no_openvdb(airmass_bin):
+    """libopenvdb's ≈ 64 000 relocations were most of every start of the tool; only the commands
+    that write grids load it, through the module beside the executable (plugin/cli/vdb_module.hpp)."""
+    env = dict(os.environ, LD_TRACE_LOADED_OBJECTS="1")  # the loader lists what a start maps
+    r = subprocess.run([airmass_bin, "--version"], capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r
+    assert "libc.so" in r.stdout, r.stdout  # the listing happened
+    assert "libopenvdb" not in r.stdout, r.stdout
+    module = pathlib.Path(airmass_bin).parent / "libairmass_vdb_module.so"
+    assert module.is_file(), "the OpenVDB writer module is not beside %s" % airmass_bin
+    r = subprocess.run(["ldd", str(module)], capture_output=True, text=True, timeout=60)
+    assert "libopenvdb" in r.stdout, r.stdout
+
+
+def test_missing_vdb_module_is_a_named_error(airmass_bin, tmp_path):
+    """A copy of the executable without its module: `airmass vdb` says which file it could not
+    load, exits 2 and writes nothing; commands without grids are unaffected."""
+    lonely = tmp_path / "airmass"
+    lonely.write_bytes(pathlib.Path(airmass_bin).read_bytes())
+    lonely.chmod(0o755)
+    out = tmp_path / "out.vdb"
+    r = subprocess.run([str(lonely), "vdb", "--preset", "earth", "--voxel-size", "20", "-o", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r
+    assert "libairmass_vdb_module.so" in r.stderr and "cannot load the OpenVDB writer" in r.stderr, r.stderr
+    assert list(tmp_path.iterdir()) == [lonely]
+    r = subprocess.run([str(lonely), "--version"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r
 
 
 def test_version_is_in_help(airmass_bin):

@@ -38,8 +38,11 @@ def main():
     if has("libairmass_c.dylib"):
         carried |= {"macos-arm64", "macos-x64"}
     libs = sorted(n for n in names if re.search(r"\.(so(\.\d+)*|dll|dylib)$", n))
+    # bin/ holds the `airmass` CLI (Compare with Native runs it as a process) and its OpenVDB
+    # writer module; Blender loads neither.
     extra = [n for n in libs if n not in ("airmass_blender/libairmass_c.so", "airmass_blender/airmass_c.dll",
-                                          "airmass_blender/libairmass_c.dylib")]
+                                          "airmass_blender/libairmass_c.dylib",
+                                          "airmass_blender/bin/libairmass_vdb_module.so")]
     if extra:
         problems.append("libraries beyond the one per platform: %s" % extra)
     if listed != carried:

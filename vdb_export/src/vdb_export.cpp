@@ -15,18 +15,6 @@ namespace airmass {
 
 namespace fs = std::filesystem;
 
-std::vector<fs::path> vdb_output_paths(const fs::path& path, std::size_t tiles) {
-    if (tiles <= 1) return {path};
-    std::vector<fs::path> out;
-    const fs::path dir = path.parent_path();
-    for (const auto& name : volume_file_names(path.stem().string(), tiles)) out.push_back(dir / name);
-    return out;
-}
-
-void write_text_atomic(const fs::path& path, std::string_view text, const CancelFlag* cancel) {
-    detail::as_vdb_error([&] { write_file_atomic(path, text, cancel); });
-}
-
 namespace {
 
 // What openvdb::io::File::write does — Archive::write(stream, grids, seekable = true, meta) —

@@ -91,17 +91,6 @@ VdbStats timed_write(const Scene& scene, const VdbOptions& o, const fs::path& sc
     return s;
 }
 
-std::string g4(double x) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.4g", x);
-    return b;
-}
-std::string e2(double x) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.2e", x);
-    return b;
-}
-
 }  // namespace
 
 std::vector<VdbTradeRay> vdb_trade_rays(const Scene& scene) {
@@ -241,78 +230,6 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         if (options.progress) options.progress(double(vi + 1) / double(options.voxel_sizes.size()));
     }
     return result;
-}
-
-std::string vdb_trade_rays_csv(const VdbTradeResult& r) {
-    std::ostringstream o;
-    o << "voxel_size_km,ray,tau_ref_r,tau_ref_g,tau_ref_b,tau_vdb_r,tau_vdb_g,tau_vdb_b,tau_rel_error_max,"
-         "transmittance_abs_error_max\n";
-    char b[512];
-    for (const auto& x : r.rays) {
-        std::snprintf(b, sizeof b, "%.17g,%s,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", x.voxel_size,
-                      x.ray.c_str(), x.tau_ref[0], x.tau_ref[1], x.tau_ref[2], x.tau_vdb[0], x.tau_vdb[1], x.tau_vdb[2],
-                      x.tau_rel_error_max, x.transmittance_abs_error_max);
-        o << b;
-    }
-    return o.str();
-}
-
-std::string vdb_trade_costs_csv(const VdbTradeResult& r) {
-    std::ostringstream o;
-    o << "voxel_size_km,region,refused,active_voxels,memory_bytes,dense_bytes,file_bytes,tiles,build_s,write_s,"
-         "voxels_per_s\n";
-    char b[512];
-    for (const auto& c : r.costs) {
-        const double rate = c.refused ? 0.0 : double(c.active_voxels) / (c.build_seconds + c.write_seconds);
-        std::snprintf(b, sizeof b, "%.17g,%s,%d,%llu,%llu,%llu,%llu,%zu,%.6f,%.6f,%.6g\n", c.voxel_size, c.region.c_str(),
-                      int(c.refused), (unsigned long long)c.active_voxels, (unsigned long long)c.memory_bytes,
-                      (unsigned long long)c.dense_bytes, (unsigned long long)c.file_bytes, c.tiles, c.build_seconds,
-                      c.write_seconds, rate);
-        o << b;
-    }
-    return o.str();
-}
-
-std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene_name) {
-    std::ostringstream o;
-    std::vector<std::string> rays;
-    std::vector<double> sizes;
-    for (const auto& x : r.rays) {
-        if (std::find(rays.begin(), rays.end(), x.ray) == rays.end()) rays.push_back(x.ray);
-        if (std::find(sizes.begin(), sizes.end(), x.voxel_size) == sizes.end()) sizes.push_back(x.voxel_size);
-    }
-    o << "Scene `" << scene_name << "`. Largest error over R, G, B of the optical depth through the grids "
-      << "(trilinear) against the analytic value; in brackets the transmittance error |ΔT|.\n\n"
-      << "| voxel (km) |";
-    for (const auto& n : rays) o << " " << n << " |";
-    o << "\n|---:|";
-    for (std::size_t i = 0; i < rays.size(); ++i) o << "---:|";
-    o << "\n";
-    for (double v : sizes) {
-        o << "| " << g4(v) << " |";
-        for (const auto& n : rays)
-            for (const auto& x : r.rays)
-                if (x.voxel_size == v && x.ray == n)
-                    o << " " << e2(x.tau_rel_error_max) << " (" << e2(x.transmittance_abs_error_max) << ") |";
-        o << "\n";
-    }
-    o << "\nWhat each voxel size costs: `view-200km` is the Earth view region of a ground camera (60°, 640×360, "
-         "200 km), `slab` the box holding the rays above. Dense = what Blender 3.4 allocates (Σ tile boxes × 4 B).\n\n"
-      << "| voxel (km) | region | active voxels | memory (MiB) | dense (MiB) | file (MiB) | tiles | build (s) | "
-         "write (s) | voxels/s |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-    for (const auto& c : r.costs) {
-        if (c.refused) {
-            o << "| " << g4(c.voxel_size) << " | " << c.region << " | refused: " << c.note << " ||||||||\n";
-            continue;
-        }
-        const double M = 1024.0 * 1024.0;
-        o << "| " << g4(c.voxel_size) << " | " << c.region << " | " << c.active_voxels << " | "
-          << g4(double(c.memory_bytes) / M) << " | " << g4(double(c.dense_bytes) / M) << " | "
-          << g4(double(c.file_bytes) / M) << " | " << c.tiles << " | " << g4(c.build_seconds) << " | "
-          << g4(c.write_seconds) << " | " << g4(double(c.active_voxels) / (c.build_seconds + c.write_seconds))
-          << " |\n";
-    }
-    return o.str();
 }
 
 }  // namespace airmass
