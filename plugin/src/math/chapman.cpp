@@ -72,9 +72,8 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 // `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
 // The loop is compiled twice: for baseline x86-64 and, with everything it calls inlined
 // (flatten), for AVX2/FMA; simd_target() picks one at run time (airmass/simd.hpp).
-// The `airmass` method runs its stages (chapman_airmass.hpp) over blocks of kAirmassBlock lanes:
-// the arithmetic stages as loops the compiler vectorises, the table reads lane by lane.
-constexpr size_t kAirmassBlock = 64;
+// The `airmass` method has its own kernel, four lanes on vectors (chapman_airmass_batch.inc),
+// compiled twice above.
 
 template <class T, ChapmanMethod M, class X, class Out>
 [[gnu::always_inline]] inline void batch_body(X& x_of, std::span<const T> c, std::span<const T> s, Out& out) {

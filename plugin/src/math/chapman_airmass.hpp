@@ -129,17 +129,14 @@ struct AirmassTable {
     }
 };
 
-// ---- The fast path (chapman.cpp's scalar and batch forms) -------------------------------
-// The same interpolant as AirmassTable::scaled, arranged for speed: branch-free, one square
-// root per radius, one division for everything, a polynomial exp, and split into stages so that
-// a batch runs each stage over a block of lanes and the compiler vectorises the arithmetic
-// stages (airmass_prepare, airmass_finish); only the table reads (airmass_read) are per lane.
-// The scalar form runs the same stages on one lane, so batch and scalar agree.
+// ---- The fast path (chapman.cpp's scalar form; chapman_airmass_batch.inc the batch) -------
+// The same interpolant as AirmassTable::scaled, arranged for speed: one square root per radius,
+// independent divisions whose latencies overlap, the table read on 4-double vectors, and a
+// polynomial exp. The batch kernel evaluates the same formulas four lanes at a time (with one
+// shared division), so batch and scalar agree to rounding (tests/test_chapman_batch.cpp).
 // The arithmetic is in double for float and double inputs: float then costs no accuracy in
 // d = x − x0, which multiplies the whole value.
-//
-// Lanes the fast path cannot take (x beyond ~1e150, +inf or NaN, where the shared division would
-// overflow) are flagged `slow` and go through AirmassTable::scaled.
+// Inputs the fast path cannot take (x beyond ~1e150, +inf or NaN) go through AirmassTable::scaled.
 
 // e^(−d) for d ≥ 0 (d > 700 gives e^(−700), which no caller can tell from 0 beside the O(1)
 // terms it is added to): d = k ln 2 + r, |r| ≤ ln2/2, e^(−r) by its Taylor polynomial to degree
@@ -168,56 +165,7 @@ inline double airmass_exp_neg(double d) {
     return p * std::bit_cast<double>((1023ull - kbits) << 52);
 }
 
-// Stage 1, per lane: everything but the table reads. With m = |mu|, a = 1 + √x, b = 1 + mY,
-// q = (c − 1) m + 1, x0 = x sin chi, a0 = 1 + √x0 and e = a0 (1 + sin chi), the five quotients
-//     w = 1/a, v = m(1 + Y)/b, B = c/q, w0 = 1/a0, d = x m²/(1 + sin chi)
-// share the one division 1/(a b q e). Gives the cells' coefficient offsets and local
-// coordinates, B, the horizontal base c0 = c(x0), d and the below/slow flags (as 0/1).
-struct AirmassLane {
-    double t, u, t0, base, c0, d;
-    int cell, cell0, below, slow;
-};
-
-inline AirmassLane airmass_prepare(int n_w, int n_v, double x, double mu, double s, double sx, double sx0) {
-    const double m = std::fabs(mu);
-    const double Y = sx * 0.70710678118654752;
-    const double c = airmass_base_horizontal(sx);
-    const double a = 1.0 + sx, b = 1.0 + m * Y, q = (c - 1.0) * m + 1.0;
-    const double sp = 1.0 + s;
-    const double a0 = 1.0 + sx0;
-    const double ab = a * b;
-    const double D = ab * q;
-    const double e = a0 * sp;
-    const double P = D * e;
-    // P ≤ 1e300 also rejects NaN; x = +inf makes P = inf.
-    const bool slow = !(P <= 1e300);
-    const double inv = 1.0 / (slow ? 1.0 : P);
-    const double inv_D = e * inv;
-    const double w = slow ? 0.0 : b * q * inv_D;
-    const double v_raw = m * (1.0 + Y) * a * q * inv_D;
-    const double v = slow ? 0.0 : (v_raw < 1.0 ? v_raw : 1.0);
-    const double w0 = slow ? 0.0 : D * sp * inv;
-    const double sw = w * (n_w - 1), sv = v * (n_v - 1), sw0 = w0 * (n_w - 1);
-    // Each in [0, n − 1] (0 on slow lanes), so the conversions are defined.
-    int iw = static_cast<int>(sw), iv = static_cast<int>(sv), iw0 = static_cast<int>(sw0);
-    iw = iw < n_w - 2 ? iw : n_w - 2;
-    iv = iv < n_v - 2 ? iv : n_v - 2;
-    iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
-    AirmassLane l;
-    l.t = sw - iw;
-    l.u = sv - iv;
-    l.t0 = sw0 - iw0;
-    l.cell = (iw * (n_v - 1) + iv) * 16;
-    l.cell0 = iw0 * (n_v - 1) * 16;
-    l.base = c * ab * inv_D;
-    l.c0 = airmass_base_horizontal(sx0);
-    l.d = x * m * m * D * a0 * inv;
-    l.below = mu < 0.0;
-    l.slow = slow;
-    return l;
-}
-
-// Stage 2, per lane: the bicubic at (t, u) in the cell at `cell`. Horner in t on the four
+// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Horner in t on the four
 // groups of u-coefficients at once (one 4-double vector each: four loads, three vector FMAs),
 // then Horner in u on the four lanes. GCC and Clang vector extensions: AVX registers in the
 // avx2+fma copy, pairs of SSE2 registers in the baseline one.
@@ -249,12 +197,6 @@ inline double airmass_read(const double* coefficients, int cell, double t, doubl
 inline double airmass_read_column0(const double* coefficients, int cell0, double t0) {
     const double* c = coefficients + cell0;
     return (c[0] + c[4] * t0) + (c[8] + c[12] * t0) * (t0 * t0);
-}
-
-// Stage 3, per lane: Ch = B R above the horizon; below, the reflection identity in scaled form,
-// mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d), log_scale = d.
-inline double airmass_finish_below(double base, double r, double c0, double h, double d) {
-    return 2.0 * c0 * h - base * r * airmass_exp_neg(d);
 }
 
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
@@ -306,7 +248,8 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
     iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
     const double r = airmass_read(table.coefficients, (iw * (n_v - 1) + iv) * 16, sw - iw, sv - iv);
     const double h = airmass_read_column0(table.coefficients, iw0 * (n_v - 1) * 16, sw0 - iw0);
-    return {static_cast<T>(airmass_finish_below(base, r, airmass_base_horizontal(sx0), h, d)), static_cast<T>(d)};
+    // The reflection identity in scaled form: mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d).
+    return {static_cast<T>(2.0 * airmass_base_horizontal(sx0) * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
 }
 
 // Table coordinates → (x, mu), for the generator. w ∈ (0, 1], v ∈ [0, 1].
