@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -14,6 +15,23 @@
 #include "chapman_published.hpp"
 
 namespace airmass {
+
+// The `airmass` batch kernel, once for baseline x86-64 and once for AVX2/FMA (airmass/simd.hpp).
+#if AIRMASS_CHAPMAN_VECTORS
+namespace airmass_v4 {
+namespace baseline {
+#include "chapman_airmass_batch.inc"
+}  // namespace baseline
+#if AIRMASS_SIMD_DISPATCH
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+namespace avx2_fma {
+#include "chapman_airmass_batch.inc"
+}  // namespace avx2_fma
+#pragma GCC pop_options
+#endif
+}  // namespace airmass_v4
+#endif
 
 namespace {
 
@@ -38,7 +56,7 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
             const auto r = chapman_exact_scaled(double(x), double(mu), double(s));
             return {static_cast<T>(r.mantissa), static_cast<T>(r.log_scale)};
         }
-        case ChapmanMethod::airmass: return airmass_table().scaled(x, mu, s);
+        case ChapmanMethod::airmass: return airmass_scaled_fast<T>(airmass_table(), x, mu, s);
         case ChapmanMethod::schuler2012: return chapman_schuler2012(x, mu, s);
         case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, mu, s);
         case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, mu, s);
@@ -54,16 +72,32 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 // `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
 // The loop is compiled twice: for baseline x86-64 and, with everything it calls inlined
 // (flatten), for AVX2/FMA; simd_target() picks one at run time (airmass/simd.hpp).
+// The `airmass` method has its own kernel, four lanes on vectors (chapman_airmass_batch.inc),
+// compiled twice above.
+
 template <class T, ChapmanMethod M, class X, class Out>
 [[gnu::always_inline]] inline void batch_body(X& x_of, std::span<const T> c, std::span<const T> s, Out& out) {
-    const size_t n = c.size();
-    for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), c[i], s[i]));
+    if constexpr (M == ChapmanMethod::airmass) {
+        const auto& table = detail::airmass_table();
+#if AIRMASS_CHAPMAN_VECTORS
+        airmass_v4::baseline::airmass_batch<T>(table, x_of, c, s, out);
+#else
+        for (size_t i = 0; i < c.size(); ++i) out(i, detail::airmass_scaled_fast<T>(table, x_of(i), c[i], s[i]));
+#endif
+    } else {
+        const size_t n = c.size();
+        for (size_t i = 0; i < n; ++i) out(i, scaled_one<T>(M, x_of(i), c[i], s[i]));
+    }
 }
 
 #if AIRMASS_SIMD_DISPATCH
 template <class T, ChapmanMethod M, class X, class Out>
 AIRMASS_TARGET_AVX2_FMA void batch_loop_avx2_fma(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
-    batch_body<T, M>(x_of, c, s, out);
+    if constexpr (M == ChapmanMethod::airmass) {
+        airmass_v4::avx2_fma::airmass_batch<T>(detail::airmass_table(), x_of, c, s, out);
+    } else {
+        batch_body<T, M>(x_of, c, s, out);
+    }
 }
 #endif
 

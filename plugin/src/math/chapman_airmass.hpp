@@ -12,6 +12,10 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
+#include <cstddef>
+#include <cstring>
+
 #include <cmath>
 #include <limits>
 
@@ -124,6 +128,129 @@ struct AirmassTable {
             x, mu, sin_chi, [this](T x_, T m) { return upper(x_, m); }, [this](T x0) { return horizontal(x0); });
     }
 };
+
+// ---- The fast path (chapman.cpp's scalar form; chapman_airmass_batch.inc the batch) -------
+// The same interpolant as AirmassTable::scaled, arranged for speed: one square root per radius,
+// independent divisions whose latencies overlap, the table read on 4-double vectors, and a
+// polynomial exp. The batch kernel evaluates the same formulas four lanes at a time (with one
+// shared division), so batch and scalar agree to rounding (tests/test_chapman_batch.cpp).
+// The arithmetic is in double for float and double inputs: float then costs no accuracy in
+// d = x − x0, which multiplies the whole value.
+// Inputs the fast path cannot take (x beyond ~1e150, +inf or NaN) go through AirmassTable::scaled.
+
+// e^(−d) for d ≥ 0 (d > 700 gives e^(−700), which no caller can tell from 0 beside the O(1)
+// terms it is added to): d = k ln 2 + r, |r| ≤ ln2/2, e^(−r) by its Taylor polynomial to degree
+// 9 (truncation ≤ 7e-12; the identity's mantissa inherits at most this relative error, since
+// Ch(x, 180° − chi) e^(−d) ≤ Ch∥(x0)), in Estrin's scheme (a short dependency chain), and 2^(−k)
+// built in the exponent bits. Branch-free. Written once for double and for 4-double vectors.
+template <class V, class Bits>
+inline V airmass_exp_neg_poly(V d, V kb, double round_magic) {
+    constexpr double ln2_hi = 0.6931471805598903, ln2_lo = 5.497923018708371e-14;
+    const V k = kb - round_magic;
+    const V y = (k * ln2_hi - d) + k * ln2_lo;  // −r
+    const V y2 = y * y, y4 = y2 * y2, y8 = y4 * y4;
+    const V p01 = 1.0 + y, p23 = 0.5 + y * (1.0 / 6.0), p45 = 1.0 / 24.0 + y * (1.0 / 120.0);
+    const V p67 = 1.0 / 720.0 + y * (1.0 / 5040.0), p89 = 1.0 / 40320.0 + y * (1.0 / 362880.0);
+    return (p01 + y2 * p23) + y4 * (p45 + y2 * p67) + y8 * p89;
+}
+
+inline double airmass_exp_neg(double d) {
+    d = d < 700.0 ? d : 700.0;
+    constexpr double inv_ln2 = 1.4426950408889634;
+    constexpr double round_magic = 6755399441055744.0;  // 1.5 · 2^52: adding it rounds to an integer
+    const double kb = d * inv_ln2 + round_magic;
+    const double p = airmass_exp_neg_poly<double, unsigned long long>(d, kb, round_magic);
+    // k = the low bits of kb (0 ≤ k ≤ 1010): 2^(−k) has biased exponent 1023 − k.
+    const unsigned long long kbits = std::bit_cast<unsigned long long>(kb) - std::bit_cast<unsigned long long>(round_magic);
+    return p * std::bit_cast<double>((1023ull - kbits) << 52);
+}
+
+// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Horner in t on the four
+// groups of u-coefficients at once (one 4-double vector each: four loads, three vector FMAs),
+// then Horner in u on the four lanes. GCC and Clang vector extensions: AVX registers in the
+// avx2+fma copy, pairs of SSE2 registers in the baseline one.
+#if defined(__GNUC__) || defined(__clang__)
+#define AIRMASS_CHAPMAN_VECTORS 1
+typedef double AirmassV4 __attribute__((vector_size(32)));
+inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+    const double* c = coefficients + cell;
+    AirmassV4 g0, g1, g2, g3;
+    std::memcpy(&g0, c, sizeof g0);
+    std::memcpy(&g1, c + 4, sizeof g1);
+    std::memcpy(&g2, c + 8, sizeof g2);
+    std::memcpy(&g3, c + 12, sizeof g3);
+    // Estrin's scheme in both directions: two dependent FMAs each instead of three.
+    const AirmassV4 col = (g0 + g1 * t) + (g2 + g3 * t) * (t * t);
+    return (col[0] + col[1] * u) + (col[2] + col[3] * u) * (u * u);
+}
+#else
+#define AIRMASS_CHAPMAN_VECTORS 0
+inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+    const double* c = coefficients + cell;
+    double col[4];
+    for (int b = 0; b < 4; ++b) col[b] = (c[b] + c[4 + b] * t) + (c[8 + b] + c[12 + b] * t) * (t * t);
+    return (col[0] + col[1] * u) + (col[2] + col[3] * u) * (u * u);
+}
+#endif
+
+// ... and the v = 0 column at t0 in the cell at `cell0`.
+inline double airmass_read_column0(const double* coefficients, int cell0, double t0) {
+    const double* c = coefficients + cell0;
+    return (c[0] + c[4] * t0) + (c[8] + c[12] * t0) * (t0 * t0);
+}
+
+// One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
+// root, one division, one table read); below, all of stage 1.
+template <class T>
+inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T mu_in, T s_in) {
+    const double x = x_in, mu = mu_in;
+    if (mu >= 0.0) {
+        const double sx = std::sqrt(x);
+        const double Y = sx * 0.70710678118654752;
+        const double c = airmass_base_horizontal(sx);
+        const double a = 1.0 + sx, b = 1.0 + mu * Y, q = (c - 1.0) * mu + 1.0;
+        // Three independent divisions: on one lane their latencies overlap, which is shorter
+        // than the batch's shared division (three multiplications before and after it).
+        if (!(x <= 1e300)) return table.scaled(x_in, mu_in, s_in);
+        const double w = 1.0 / a;
+        const double v_raw = mu * (1.0 + Y) / b;
+        const double v = v_raw < 1.0 ? v_raw : 1.0;
+        const double base = c / q;
+        const double sw = w * (table.n_w - 1), sv = v * (table.n_v - 1);
+        int iw = static_cast<int>(sw), iv = static_cast<int>(sv);
+        iw = iw < table.n_w - 2 ? iw : table.n_w - 2;
+        iv = iv < table.n_v - 2 ? iv : table.n_v - 2;
+        const double r = airmass_read(table.coefficients, (iw * (table.n_v - 1) + iv) * 16, sw - iw, sv - iv);
+        return {static_cast<T>(base * r), T(0)};
+    }
+    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (four).
+    const double s = s_in;
+    // x a0 ~ x^1.5 must not overflow in d.
+    if (!(x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
+    const double m = -mu;
+    const double sx = std::sqrt(x), sx0 = std::sqrt(x * s);
+    const double Y = sx * 0.70710678118654752;
+    const double c = airmass_base_horizontal(sx);
+    const double a = 1.0 + sx, b = 1.0 + m * Y, q = (c - 1.0) * m + 1.0;
+    const double a0 = 1.0 + sx0, sp = 1.0 + s;
+    const double w = 1.0 / a;
+    const double v_raw = m * (1.0 + Y) / b;
+    const double v = v_raw < 1.0 ? v_raw : 1.0;
+    const double base = c / q;
+    const double inv0 = 1.0 / (a0 * sp);
+    const double w0 = sp * inv0;
+    const double d = x * m * m * a0 * inv0;
+    const int n_w = table.n_w, n_v = table.n_v;
+    const double sw = w * (n_w - 1), sv = v * (n_v - 1), sw0 = w0 * (n_w - 1);
+    int iw = static_cast<int>(sw), iv = static_cast<int>(sv), iw0 = static_cast<int>(sw0);
+    iw = iw < n_w - 2 ? iw : n_w - 2;
+    iv = iv < n_v - 2 ? iv : n_v - 2;
+    iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
+    const double r = airmass_read(table.coefficients, (iw * (n_v - 1) + iv) * 16, sw - iw, sv - iv);
+    const double h = airmass_read_column0(table.coefficients, iw0 * (n_v - 1) * 16, sw0 - iw0);
+    // The reflection identity in scaled form: mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d).
+    return {static_cast<T>(2.0 * airmass_base_horizontal(sx0) * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
+}
 
 // Table coordinates → (x, mu), for the generator. w ∈ (0, 1], v ∈ [0, 1].
 inline void airmass_table_point(double w, double v, double& x, double& mu) {
