@@ -81,6 +81,11 @@ TYPED_TEST(SpectrumTyped, MinMaxAndReductions) {
     const Spectrum<T> a{T(1), T(5), T(-2), T(8)}, b{T(3), T(4), T(-2), T(9)};
     EXPECT_EQ(airmass::min(a, b), (Spectrum<T>{T(1), T(4), T(-2), T(8)}));
     EXPECT_EQ(airmass::max(a, b), (Spectrum<T>{T(3), T(5), T(-2), T(9)}));
+    Spectrum<T> c{T(-1), T(0.5), T(NAN), T(3)};
+    airmass::max(c, T(0));  // std::max(0, c): 0 where c is NaN
+    EXPECT_EQ(c, (Spectrum<T>{T(0), T(0.5), T(0), T(3)}));
+    airmass::min(c, T(1));
+    EXPECT_EQ(c, (Spectrum<T>{T(0), T(0.5), T(0), T(1)}));
     EXPECT_EQ(airmass::sum(a), T(12));
     EXPECT_EQ(airmass::average(a), T(3));
     EXPECT_EQ(airmass::min_value(a), T(-2));

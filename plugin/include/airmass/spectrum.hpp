@@ -12,7 +12,8 @@
 //   add_scaled(a, b, s)          a += b · s       (τ += σt · m: one constituent's optical depth)
 //   add_product(a, b, c[, s])    a += b · c [· s], evaluated as (s · b) · c
 //   exp_neg(a) / exp_neg(out, a) a = e^(−a)       (optical depth → transmittance)
-//   min(out, a, b), max(out, a, b), sum(a), average(a), min_value(a), max_value(a)
+//   min(out, a, b), max(out, a, b), min(a, s), max(a, s), sum(a), average(a),
+//   min_value(a), max_value(a)
 //   Spectrum operators +, −, ·, / returning a new Spectrum (they allocate: not for kernels).
 //
 // Vectorisation: every elementwise operation is one contiguous loop over `size()` elements
@@ -326,6 +327,19 @@ inline void max(A&& dst, SpectrumIn<A> b, SpectrumIn<A> c) {
     spectrum_detail::check("max", a.size(), b.size());
     spectrum_detail::check("max", a.size(), c.size());
     for (std::size_t w = 0; w < a.size(); ++w) a[w] = b[w] < c[w] ? c[w] : b[w];
+}
+
+// a = max(s, a), a = min(s, a) elementwise with a scalar, as std::max(s, a) / std::min(s, a)
+// (s where a is NaN).
+template <class A>
+inline void max(A&& dst, spectrum_value_t<A> s) {
+    const auto a = as_view(dst);
+    for (std::size_t w = 0; w < a.size(); ++w) a[w] = s < a[w] ? a[w] : s;
+}
+template <class A>
+inline void min(A&& dst, spectrum_value_t<A> s) {
+    const auto a = as_view(dst);
+    for (std::size_t w = 0; w < a.size(); ++w) a[w] = a[w] < s ? a[w] : s;
 }
 
 // a = e^(−a), out = e^(−b), out = e^b: optical depth → transmittance (std::exp per element;
