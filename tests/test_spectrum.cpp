@@ -74,6 +74,10 @@ TYPED_TEST(SpectrumTyped, FusedFormsAndExp) {
     EXPECT_EQ(L, (Spectrum<T>{T(9), T(7), T(6)}));
     airmass::add_product(L, sigma, Spectrum<T>{T(1), T(2), T(0)});
     EXPECT_EQ(L, (Spectrum<T>{T(11), T(13), T(6)}));
+    // L += (σs · w) · T with float weights w
+    const std::vector<float> wf{1.0f, 0.5f, 2.0f};
+    airmass::add_triple_product(L, sigma, SpectrumView<const float>(wf), Spectrum<T>{T(1), T(2), T(0.5)});
+    EXPECT_EQ(L, (Spectrum<T>{T(13), T(16), T(11)}));
 }
 
 TYPED_TEST(SpectrumTyped, MinMaxAndReductions) {

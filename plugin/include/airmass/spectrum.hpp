@@ -11,6 +11,7 @@
 //   fill(a, x), assign(a, b) (also converting float ↔ double)
 //   add_scaled(a, b, s)          a += b · s       (τ += σt · m: one constituent's optical depth)
 //   add_product(a, b, c[, s])    a += b · c [· s], evaluated as (s · b) · c
+//   add_triple_product(a, b, c, d)  a += (b · c) · d, c of another element type
 //   exp_neg(a) / exp_neg(out, a) a = e^(−a)       (optical depth → transmittance)
 //   min(out, a, b), max(out, a, b), min(a, s), max(a, s), sum(a), average(a),
 //   min_value(a), max_value(a)
@@ -296,6 +297,17 @@ inline void add_product(A&& dst, SpectrumIn<A> b, SpectrumIn<A> c, spectrum_valu
     spectrum_detail::check("add_product", a.size(), b.size());
     spectrum_detail::check("add_product", a.size(), c.size());
     for (std::size_t w = 0; w < a.size(); ++w) a[w] += s * b[w] * c[w];
+}
+
+// a += (b · c) · d, c of any element type (converted to a's: float table weights in double sums)
+template <class A, class U>
+inline void add_triple_product(A&& dst, SpectrumIn<A> b, SpectrumView<const U> c, SpectrumIn<A> d) {
+    const auto a = as_view(dst);
+    using T = typename decltype(a)::value_type;
+    spectrum_detail::check("add_triple_product", a.size(), b.size());
+    spectrum_detail::check("add_triple_product", a.size(), c.size());
+    spectrum_detail::check("add_triple_product", a.size(), d.size());
+    for (std::size_t w = 0; w < a.size(); ++w) a[w] += b[w] * T(c[w]) * d[w];
 }
 
 // out = b + c, b − c, b · c, b / c
