@@ -22,6 +22,7 @@
 #include "airmass/scene_io.hpp"
 #include "airmass/evaluator.hpp"
 #include "airmass/single_scattering.hpp"
+#include "airmass/spectrum.hpp"
 #include "airmass/sky.hpp"
 #include "airmass/version.hpp"
 
@@ -214,6 +215,12 @@ void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm
 
     double acc[kMaxConstituents] = {};  // view masses from a to prev
     double dm[kMaxConstituents], ms[kMaxConstituents];
+    SpectrumScratch<double> tau(nw), sigma_s(nw);
+    // τ = Σ_i σt_i (acc_i + ms_i), the view and sun masses together
+    const auto optical_depth_into = [&](SpectrumView<double> t) {
+        fill(t, 0.0);
+        for (std::size_t i = 0; i < nc; ++i) add_scaled(t, atm.constituents[i].extinction_per_m, acc[i] + ms[i]);
+    };
     if (!in.empty() && b > a) {
         double prev = a, t = a;
         while (t < b) {
@@ -255,21 +262,19 @@ void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm
                 }
                 if (!any) continue;
                 const double w_len = len * kGlW[k];
-                for (std::size_t w = 0; w < nw; ++w) {
-                    double tau = 0.0, s = 0.0;
-                    for (std::size_t i = 0; i < nc; ++i) {
-                        tau += atm.extinction_matrix[w * nc + i] * (acc[i] + ms[i]);
-                        s += atm.constituents[i].scattering_per_m[w] * scatter_weight[i];
-                    }
-                    out[w] += w_len * s * std::exp(-tau);
-                }
+                optical_depth_into(tau);
+                exp_neg(tau);
+                fill(sigma_s, 0.0);  // Σ_i σs_i ρ_i P_i
+                for (std::size_t i = 0; i < nc; ++i)
+                    add_scaled(sigma_s, atm.constituents[i].scattering_per_m, scatter_weight[i]);
+                add_product(out.first(nw), sigma_s, tau, w_len);
             }
             t = end;
         }
         constituent_masses(atm, ray, prev, b, std::span<double>(dm, nc));
         for (std::size_t i = 0; i < nc; ++i) acc[i] += dm[i];
     }
-    for (std::size_t w = 0; w < nw; ++w) out[w] *= atm.sun_irradiance[w];
+    SpectrumView<double>(out.first(nw)) *= atm.sun_irradiance;
 
     // The ground (the whole planet, not cut to the box), seen through the box's medium.
     if (seg.hits_ground && atm.settings.ground && atm.ground_albedo > 0.0) {
@@ -282,11 +287,12 @@ void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm
             const double sa = std::max(sin.t0, 0.0);
             if (sin.empty() || !(sin.t1 > sa)) std::fill(ms, ms + nc, 0.0);
             else constituent_masses(atm, sun_ray, sa, sin.t1, std::span<double>(ms, nc));
-            for (std::size_t w = 0; w < nw; ++w) {
-                double tau = 0.0;
-                for (std::size_t i = 0; i < nc; ++i) tau += atm.extinction_matrix[w * nc + i] * (acc[i] + ms[i]);
-                out[w] += atm.ground_albedo / kPi * atm.sun_irradiance[w] * mu_g * std::exp(-tau);
-            }
+            optical_depth_into(tau);
+            exp_neg(tau);
+            assign(sigma_s, atm.sun_irradiance);  // reused: E_sun a/π μ_g
+            sigma_s.view() *= atm.ground_albedo / kPi;
+            sigma_s.view() *= mu_g;
+            add_product(out.first(nw), sigma_s, tau);
         }
     }
 }

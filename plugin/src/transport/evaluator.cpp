@@ -11,6 +11,7 @@
 
 #include "airmass/optical_depth.hpp"
 #include "airmass/parallel.hpp"
+#include "airmass/spectrum.hpp"
 #include "airmass/table_store.hpp"
 
 namespace airmass {
@@ -70,7 +71,7 @@ void Evaluator::radiance(const ViewRay& ray, RadianceOut out, const MsRadianceOu
     MsScratch scratch(multiple ? 0 : nw);
     const MsRadianceOut parts = multiple ? *multiple : MsRadianceOut{scratch.rayleigh, scratch.mie, scratch.total};
     multiple_scattering_radiance(atmosphere_, *tables_, ray, parts, ms_view_samples_);
-    for (std::size_t w = 0; w < nw; ++w) out.radiance[w] += parts.multiple[w];
+    SpectrumView<double>(out.radiance.first(nw)) += parts.multiple.first(nw);
 }
 
 void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Vec3<double>> dirs,
@@ -91,10 +92,9 @@ void Evaluator::radiance(double altitude_m, Vec3<double> sun, std::span<const Ve
         } else {
             multiple_scattering_radiance(atmosphere_, *tables_, ViewRay{altitude_m, dirs[k], sun},
                                          {scratch.rayleigh, scratch.mie, scratch.total}, ms_view_samples_);
-            for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = scratch.rayleigh[w] + scratch.mie[w];
+            if (!inscatter.empty()) add(inscatter, scratch.rayleigh, scratch.mie);
         }
-        double* L = out.radiance.data() + k * nw;
-        for (std::size_t w = 0; w < nw; ++w) L[w] += scratch.total[w];
+        SpectrumView<double>(out.radiance.subspan(k * nw, nw)) += scratch.total;
     }
 }
 
@@ -167,7 +167,7 @@ void Evaluator::transmittance(const PlanetRay<double>& ray, double t0, double t1
 
 bool Evaluator::sun_light(double altitude_m, ZenithAngle<double> sun_zenith, std::span<double> out) const {
     const bool lit = sun_transmittance(atmosphere_, altitude_m, sun_zenith, out);
-    for (std::size_t w = 0; w < wavelength_count(); ++w) out[w] *= atmosphere_.sun_irradiance[w];
+    SpectrumView<double>(out.first(wavelength_count())) *= atmosphere_.sun_irradiance;
     return lit;
 }
 

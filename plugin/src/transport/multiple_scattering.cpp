@@ -35,6 +35,8 @@
 #include "airmass/parallel.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/simd.hpp"
+#include "airmass/spectral_table.hpp"
+#include "airmass/spectrum.hpp"
 
 namespace airmass {
 

@@ -16,6 +16,7 @@
 #include "airmass/optical_depth.hpp"
 #include "airmass/phase.hpp"
 #include "airmass/simd.hpp"
+#include "airmass/spectrum.hpp"
 
 namespace airmass {
 
