@@ -967,8 +967,8 @@ void add_compare_command(CLI::App& app) {
     auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
     scene_opt->excludes(preset_opt);
     cmd->add_option("-o,--output", o->output, "Output directory (report.md, summary.json, images)");
-    cmd->add_option("--width", o->width, "Image width [default: the camera's]");
-    cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]");
+    cmd->add_option("--width", o->width, "Image width [default: the camera's]")->check(int_in(1, 65536));
+    cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]")->check(int_in(1, 65536));
     cmd->add_flag("--panoramic", o->panoramic, "Equirectangular panoramic camera instead of perspective");
     cmd->add_option("--samples", o->samples, "Cycles samples per seed, volume paths")
         ->capture_default_str()

@@ -137,7 +137,9 @@ void check_pov_options(const PovSceneOptions& opt) {
     if (opt.path != "sky" && opt.path != "analytic" && opt.path != "df3")
         throw CliError(c + ": --path " + opt.path + ": must be sky, analytic or df3");
     check_range(c, "--sky-width", opt.sky_width, 64, kPovMaxSkyWidth);
-    if (opt.sky_width && *opt.sky_width % 2) throw CliError(c + ": --sky-width must be even");
+    if (opt.sky_width && *opt.sky_width % 2)
+        throw CliError(c + ": --sky-width " + std::to_string(*opt.sky_width) + ": must be even, in [64, " +
+                       std::to_string(kPovMaxSkyWidth) + "]");
     check_range(c, "--media-intervals", opt.media_intervals, 1, 100000);
     check_range(c, "--media-samples", opt.media_samples, 1, 100000);
     if (opt.threads < 0 || opt.threads > 4096)

@@ -79,8 +79,9 @@ void add_camera_options(CLI::App* cmd, CameraOverrides& c) {
     cmd->add_option("--camera-position-km", c.position_km, "Camera position X,Y,Z in km (scene frame), each in [-1e7, 1e7]");
     cmd->add_option("--camera-direction", c.direction, "Camera view direction X,Y,Z");
     cmd->add_option("--camera-up", c.up, "Camera up vector X,Y,Z");
+    // Below 1e-6 degrees the focal length overflows (camera.focal_length_mm = inf).
     cmd->add_option("--fov", c.fov_deg, "Field of view along the fitted (larger) side, degrees")
-        ->check(number_in(0.0, 180.0, Ends::open));
+        ->check(number_in(1e-6, 180.0, Ends::open_high));
     cmd->add_option("--max-distance", c.max_distance_km, "Camera max distance (VDB region), km")
         ->check(number_in(0.0, 1e300, Ends::open_low));
 }
@@ -120,8 +121,8 @@ void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* 
     vec(o.direction, c.direction, "--camera-direction");
     vec(o.up, c.up, "--camera-up");
     if (o.fov_deg) {
-        if (!(*o.fov_deg > 0.0 && *o.fov_deg < 180.0))
-            throw CliError(std::string(command) + ": --fov " + std::to_string(*o.fov_deg) + ": must be in (0, 180) degrees");
+        if (!(*o.fov_deg >= 1e-6 && *o.fov_deg < 180.0))
+            throw CliError(std::string(command) + ": --fov " + format_g17(*o.fov_deg) + ": must be in [1e-6, 180) degrees");
         c.fov_deg = *o.fov_deg;
     }
     if (o.max_distance_km) {
@@ -150,7 +151,9 @@ Scene load_render_scene(const std::string& scene_path, const std::string& preset
     if (sun_rotation_deg) {
         if (!std::isfinite(*sun_rotation_deg) || std::abs(*sun_rotation_deg) > 1e6)
             throw CliError(std::string(command) + ": --sun-rotation: must be finite, |value| <= 1e6");
-        scene.sun.azimuth_deg = *sun_rotation_deg;
+        // An angle: any number of turns is the same direction (as `airmass sky`; the scene's
+        // sun.azimuth_deg is kept in [-360, 360]).
+        scene.sun.azimuth_deg = std::fmod(*sun_rotation_deg, 360.0);
     }
     validate(scene);
     return scene;
