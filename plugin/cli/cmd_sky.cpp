@@ -385,9 +385,9 @@ void add_sky_command(CLI::App& app) {
     cmd->add_option("--fps", o->fps, "Sequence: frames per second of solar time, or A/B (1/600 = every 10 min)");
     cmd->add_option("--frames", o->frames, "Sequence: render only frames A-B (1-based): a shard of the sequence");
     cmd->add_option("--latitude", o->latitude_deg, "Sequence: place latitude, degrees  [default: the scene's [sun]]")
-        ->check(number_in(-90.0, 90.0));
+        ->check(number_in(-90.0, 90.0, Ends::closed, "latitude_deg", "degrees"));
     cmd->add_option("--longitude", o->longitude_deg, "Sequence: place longitude, degrees east  [default: the scene's]")
-        ->check(number_in(-180.0, 180.0));
+        ->check(number_in(-180.0, 180.0, Ends::closed, "longitude_deg", "degrees"));
     cmd->add_option("--frames-csv", o->frames_csv,
                     "Sequence: the per-frame CSV  [default: beside the frames, e.g. out/sky.csv]");
     add_sun_options(cmd, o->sun, false);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "sun_options.hpp"
 
 namespace airmass::cli {
 
@@ -75,16 +76,20 @@ CLI::Validator int_in(long long lo, long long hi) {
         "in " + range);
 }
 
-CLI::Validator number_in(double lo, double hi, Ends ends) {
+CLI::Validator number_in(double lo, double hi, Ends ends) { return number_in(lo, hi, ends, nullptr, nullptr); }
+
+CLI::Validator number_in(double lo, double hi, Ends ends, const char* field, const char* unit) {
     const bool open_low = ends == Ends::open_low || ends == Ends::open;
     const bool open_high = ends == Ends::open_high || ends == Ends::open;
     const std::string range =
         std::string(open_low ? "(" : "[") + bound_text(lo) + ", " + bound_text(hi) + (open_high ? ")" : "]");
     return CLI::Validator(
-        [lo, hi, open_low, open_high, range](std::string& text) -> std::string {
+        [lo, hi, open_low, open_high, range, name = std::string(field ? field : ""),
+         units = std::string(unit ? unit : "")](std::string& text) -> std::string {
             double v = 0.0;
             // NaN fails every comparison; ±inf only passes an infinite closed bound.
             if (whole_double(text, v) && (open_low ? v > lo : v >= lo) && (open_high ? v < hi : v <= hi)) return {};
+            if (!name.empty()) return name + " = " + text + ": must be in " + range + (units.empty() ? "" : " " + units);
             return "'" + text + "': must be a number in " + range;
         },
         "in " + range);
