@@ -968,13 +968,17 @@ void add_compare_command(CLI::App& app) {
     auto* preset_opt = cmd->add_option("--preset", o->preset, "Built-in scene by name");
     scene_opt->excludes(preset_opt);
     cmd->add_option("-o,--output", o->output, "Output directory (report.md, summary.json, images)");
-    cmd->add_option("--width", o->width, "Image width [default: the camera's]");
-    cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]");
+    cmd->add_option("--width", o->width, "Image width [default: the camera's]")->check(int_in(1, 65536));
+    cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]")->check(int_in(1, 65536));
     cmd->add_flag("--panoramic", o->panoramic, "Equirectangular panoramic camera instead of perspective");
-    cmd->add_option("--samples", o->samples, "Cycles samples per seed, volume paths")->capture_default_str();
+    cmd->add_option("--samples", o->samples, "Cycles samples per seed, volume paths")
+        ->capture_default_str()
+        ->check(int_in(1, 1 << 20));
     cmd->add_option("--seeds", o->seeds, "Independent Blender renders per volume path (>= 2; noise estimate)")
-        ->capture_default_str();
-    cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")->capture_default_str();
+        ->capture_default_str()->check(int_in(2, 1000));
+    cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")
+        ->capture_default_str()
+        ->check(int_in(1, 1 << 20));
     cmd->add_option("--paths", o->paths,
                     "Comma-separated subset of sky_texture,analytic_volume,analytic_volume_ms,vdb_volume,pov_sky,"
                     "pov_analytic,pov_df3 (analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces "
@@ -990,26 +994,37 @@ void add_compare_command(CLI::App& app) {
                     "unbiased) and/or closures (one Volume Scatter per constituent: Cycles 3.4's phase-summing bias)")
         ->capture_default_str();
     cmd->add_option("--ms-bounces", o->ms_bounces, "Cycles volume and diffuse bounces of analytic_volume_ms")
-        ->capture_default_str();
+        ->capture_default_str()->check(int_in(1, 1024));
     cmd->add_option("--view-samples", o->view_samples, "Native: samples per constituent along each view ray")
-        ->capture_default_str();
+        ->capture_default_str()->check(int_in(1, 65536));
     cmd->add_option("--sky-oversample", o->sky_oversample, "Sky texture texels per camera pixel (at the centre)")
-        ->capture_default_str();
-    cmd->add_option("--sky-min-width", o->sky_min_width, "Smallest sky texture width")->capture_default_str();
-    cmd->add_option("--sky-max-width", o->sky_max_width, "Largest sky texture width")->capture_default_str();
-    cmd->add_option("--voxel-size", o->voxel_size_km, "VDB voxel size, km [default: auto, within --max-dense-mb]");
+        ->capture_default_str()->check(number_in(0.25, 16.0));
+    cmd->add_option("--sky-min-width", o->sky_min_width, "Smallest sky texture width")
+        ->capture_default_str()
+        ->check(int_in(64, 44720));
+    cmd->add_option("--sky-max-width", o->sky_max_width, "Largest sky texture width")
+        ->capture_default_str()
+        ->check(int_in(64, 44720));
+    cmd->add_option("--voxel-size", o->voxel_size_km, "VDB voxel size, km [default: auto, within --max-dense-mb]")
+        ->check(number_in(0.0, 1e6, Ends::open_low));
     cmd->add_option("--max-dense-mb", o->max_dense_mb, "Budget for Blender 3.4's dense VDB boxes, MiB")
-        ->capture_default_str();
-    cmd->add_option("--step", o->step_km, "Cycles volume step for the analytic volume, km")->capture_default_str();
-    cmd->add_option("--max-steps", o->max_steps, "Cycles volume_max_steps")->capture_default_str();
+        ->capture_default_str()->check(number_in(0.0, 1e12, Ends::open_low));
+    cmd->add_option("--step", o->step_km, "Cycles volume step for the analytic volume, km")
+        ->capture_default_str()
+        ->check(number_in(1e-4, 1e3));
+    cmd->add_option("--max-steps", o->max_steps, "Cycles volume_max_steps")
+        ->capture_default_str()
+        ->check(int_in(2, 65536));
     cmd->add_option("--blender", o->blender,
                     "Blender executable: the renders, and the report (compare/report.py in its own Python, "
                     "numpy only) unless --python is given")
         ->capture_default_str();
     cmd->add_option("--povray", o->povray, "POV-Ray 3.7 executable (the pov_* paths)")->capture_default_str();
     cmd->add_option("--pov-intervals", o->pov_intervals,
-                    "pov_analytic / pov_df3: media intervals [default: `airmass pov`'s rule, docs/povray.md]");
-    cmd->add_option("--pov-samples", o->pov_samples, "pov_analytic / pov_df3: media samples (method 3) [default: 3]");
+                    "pov_analytic / pov_df3: media intervals [default: `airmass pov`'s rule, docs/povray.md]")
+        ->check(int_in(1, 100000));
+    cmd->add_option("--pov-samples", o->pov_samples, "pov_analytic / pov_df3: media samples (method 3) [default: 3]")
+        ->check(int_in(1, 100000));
     cmd->add_option("--pov-refine", o->pov_refine,
                     "pov_analytic / pov_df3: also render at twice the intervals (POV-Ray is deterministic: this "
                     "measures its sampling error)")
@@ -1019,8 +1034,12 @@ void add_compare_command(CLI::App& app) {
                     "matplotlib optional) [default: in --blender]");
     cmd->add_option("--scripts", o->scripts, "Folder with blender_render.py and report.py [default: found]");
     cmd->add_option("--addon", o->addon, "Add-on folder holding airmass_blender [default: <scripts>/../addon]");
-    cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")->capture_default_str();
-    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender or POV-Ray process")->capture_default_str();
+    cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")
+        ->capture_default_str()
+        ->check(int_in(0, 4096));
+    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender or POV-Ray process")
+        ->capture_default_str()
+        ->check(number_in(1.0, 1e6));
     render_detail::add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_flag("--no-report", o->no_report, "Stop after the renders (job.json, EXRs)");
     cmd->add_flag("--no-blender", o->no_blender,

@@ -81,16 +81,21 @@ void add_eval_command(CLI::App& app) {
     cmd->add_option("--preset", opt->preset, "Built-in scene by name (see docs/scene.md)");
     cmd->add_option("--wavelengths", opt->wavelengths, "Comma-separated wavelengths in nm")->capture_default_str();
     cmd->add_option("--solar-irradiance", opt->solar_irradiance,
-                    "Constant top-of-atmosphere irradiance in W m^-2 nm^-1 (default: the scene's spectrum)");
-    cmd->add_option("--samples", opt->samples, "View-ray samples per scattering constituent")->capture_default_str();
+                    "Constant top-of-atmosphere irradiance in W m^-2 nm^-1 (default: the scene's spectrum)")
+        ->check(number_in(0.0, 1e30));
+    cmd->add_option("--samples", opt->samples, "View-ray samples per scattering constituent")
+        ->check(int_in(1, 1000000))
+        ->capture_default_str();
     cmd->add_option("--chapman", opt->chapman, "Chapman method (airmass chapman --list-methods)")
         ->capture_default_str();
     cmd->add_flag("--sun-disc", opt->sun_disc, "Add the solar disc to rays that look into it");
     cmd->add_flag("--no-ground", opt->no_ground, "Do not add the sunlit ground's radiance");
     cmd->add_flag("--reference", opt->reference, "Brute-force nested quadrature instead (slow)");
-    cmd->add_option("--threads", opt->threads, "Worker threads (0: all cores)")->capture_default_str();
+    cmd->add_option("--threads", opt->threads, "Worker threads (0: all cores)")
+        ->check(int_in(0, 4096))
+        ->capture_default_str();
     cmd->add_flag("--no-multiple", opt->no_multiple, "Single scattering only (no multiple-scattering tables)");
-    add_ms_options(cmd, opt->ms);
+    add_ms_options(cmd, opt->ms, 100000);
     cmd->add_flag("--ms-columns", opt->ms_columns,
                   "Append the columns multiple_rayleigh,multiple_mie,multiple (the multiple-scattering parts)");
     cmd->callback([opt] {
@@ -101,7 +106,7 @@ void add_eval_command(CLI::App& app) {
         if (!method) throw CliError("eval: unknown --chapman '" + opt->chapman + "' (see airmass chapman --list-methods)");
         if (opt->samples < 1 || opt->samples > 1000000)
             throw CliError("eval: --samples " + std::to_string(opt->samples) + ": must be in [1, 1000000]");
-        if (opt->threads < 0) throw CliError("eval: --threads must be >= 0");
+        if (opt->threads < 0 || opt->threads > 4096) throw CliError("eval: --threads must be in [0, 4096]");
         MsSettings ms_settings;
         int ms_samples = 32;
         apply_ms_options("eval", opt->ms, ms_settings, ms_samples, 100000);

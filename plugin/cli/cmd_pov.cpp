@@ -88,6 +88,8 @@ std::string pov_rgb(const glm::dvec3& c) { return "rgb <" + num(c.x) + ", " + nu
 // path the camera can see through the atmosphere, within [kMinIntervals, kMaxIntervals].
 constexpr double kLayersPerInterval = 18.0;
 constexpr int kMinIntervals = 32, kMaxIntervals = 400, kDefaultSamples = 3;
+// --sky-width: even, and the sky texture (width x width/2) within validate(SkySettings)'s 1e9 pixels.
+constexpr int kPovMaxSkyWidth = 44720;
 
 // The sky path's anti-aliasing: every pixel the mean of a regular 9 x 9 grid of rays (method 1,
 // depth 9, POV-Ray's largest; no jitter), the pixel mean the native box filter computes. The
@@ -135,13 +137,16 @@ void check_pov_options(const PovSceneOptions& opt) {
     const std::string& c = opt.command;
     if (opt.path != "sky" && opt.path != "analytic" && opt.path != "df3")
         throw CliError(c + ": --path " + opt.path + ": must be sky, analytic or df3");
-    check_range(c, "--sky-width", opt.sky_width, 64, kSkyMaxDimension);
-    if (opt.sky_width && *opt.sky_width % 2) throw CliError(c + ": --sky-width must be even");
+    check_range(c, "--sky-width", opt.sky_width, 64, kPovMaxSkyWidth);
+    if (opt.sky_width && *opt.sky_width % 2)
+        throw CliError(c + ": --sky-width " + std::to_string(*opt.sky_width) + ": must be even, in [64, " +
+                       std::to_string(kPovMaxSkyWidth) + "]");
     check_range(c, "--media-intervals", opt.media_intervals, 1, 100000);
     check_range(c, "--media-samples", opt.media_samples, 1, 100000);
-    if (opt.threads < 0) throw CliError(c + ": --threads " + std::to_string(opt.threads) + ": must be >= 0");
-    if (opt.voxel_size_km && !(*opt.voxel_size_km > 0.0 && std::isfinite(*opt.voxel_size_km)))
-        throw CliError(c + ": --voxel-size: must be a finite number > 0 km");
+    if (opt.threads < 0 || opt.threads > 4096)
+        throw CliError(c + ": --threads " + std::to_string(opt.threads) + ": must be in [0, 4096]");
+    if (opt.voxel_size_km && !(*opt.voxel_size_km > 0.0 && *opt.voxel_size_km <= 1e6))
+        throw CliError(c + ": --voxel-size: must be in (0, 1e6] km");
     if (opt.voxel_size_km && opt.path != "df3") throw CliError(c + ": --voxel-size applies to --path df3 only");
     if (opt.sky_width && opt.path != "sky") throw CliError(c + ": --sky-width applies to --path sky only");
 }
@@ -420,12 +425,16 @@ void add_pov_command(CLI::App& app) {
     cmd->add_flag("--panoramic", o->panoramic,
                   "Blender's equirectangular panorama (whole sphere) as POV-Ray's spherical camera [default: perspective]");
     cmd->add_option("--sky-width", o->scene.sky_width,
-                    "sky path: texture width [default: texels at most 1/2 of a camera pixel at the image centre]");
-    cmd->add_option("--voxel-size", o->scene.voxel_size_km, "df3 path: voxel edge, km [default: automatic, docs/vdb.md]");
-    cmd->add_option("--media-intervals", o->scene.media_intervals, "Media intervals [default: from the scene's scale]");
-    cmd->add_option("--media-samples", o->scene.media_samples, "Media samples (method 3) [default: 3]");
+                    "sky path: texture width, even [default: texels at most 1/2 of a camera pixel at the image centre]")
+        ->check(int_in(64, kPovMaxSkyWidth));
+    cmd->add_option("--voxel-size", o->scene.voxel_size_km, "df3 path: voxel edge, km [default: automatic, docs/vdb.md]")
+        ->check(number_in(0.0, 1e6, Ends::open_low));
+    cmd->add_option("--media-intervals", o->scene.media_intervals, "Media intervals [default: from the scene's scale]")
+        ->check(int_in(1, 100000));
+    cmd->add_option("--media-samples", o->scene.media_samples, "Media samples (method 3) [default: 3]")
+        ->check(int_in(1, 100000));
     add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
-    cmd->add_option("--threads", o->scene.threads, "Worker threads (0: all)")->capture_default_str();
+    cmd->add_option("--threads", o->scene.threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary");
     add_camera_options(cmd, o->camera);
 

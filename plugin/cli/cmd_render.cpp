@@ -76,11 +76,14 @@ std::vector<double> parse_numbers(const std::string& text, std::size_t count, co
 namespace airmass::cli::render_detail {
 
 void add_camera_options(CLI::App* cmd, CameraOverrides& c) {
-    cmd->add_option("--camera-position-km", c.position_km, "Camera position X,Y,Z in km (scene frame)");
+    cmd->add_option("--camera-position-km", c.position_km, "Camera position X,Y,Z in km (scene frame), each in [-1e7, 1e7]");
     cmd->add_option("--camera-direction", c.direction, "Camera view direction X,Y,Z");
     cmd->add_option("--camera-up", c.up, "Camera up vector X,Y,Z");
-    cmd->add_option("--fov", c.fov_deg, "Field of view along the fitted (larger) side, degrees (0, 180)");
-    cmd->add_option("--max-distance", c.max_distance_km, "Camera max distance (VDB region), km");
+    // Below 1e-6 degrees the focal length overflows (camera.focal_length_mm = inf).
+    cmd->add_option("--fov", c.fov_deg, "Field of view along the fitted (larger) side, degrees")
+        ->check(number_in(1e-6, 180.0, Ends::open_high));
+    cmd->add_option("--max-distance", c.max_distance_km, "Camera max distance (VDB region), km")
+        ->check(number_in(0.0, 1e300, Ends::open_low));
 }
 
 void add_scene_and_size_options(CLI::App* cmd, std::string& scene_path, std::string& preset, std::optional<int>& width,
@@ -88,13 +91,16 @@ void add_scene_and_size_options(CLI::App* cmd, std::string& scene_path, std::str
     auto* scene_opt = cmd->add_option("scene", scene_path, "Scene file (TOML; docs/scene.md)");
     auto* preset_opt = cmd->add_option("--preset", preset, "Built-in scene by name");
     scene_opt->excludes(preset_opt);
-    cmd->add_option("--width", width, "Image width in pixels [default: the camera's]");
-    cmd->add_option("--height", height, "Image height in pixels [default: keeps the camera's aspect]");
+    cmd->add_option("--width", width, "Image width in pixels [default: the camera's]")->check(int_in(1, 65536));
+    cmd->add_option("--height", height, "Image height in pixels [default: keeps the camera's aspect]")
+        ->check(int_in(1, 65536));
 }
 
 void add_sun_overrides(CLI::App* cmd, std::optional<double>& elevation_deg, std::optional<double>& rotation_deg) {
-    cmd->add_option("--sun-elevation", elevation_deg, "Override the sun elevation, degrees [-90, 90]");
-    cmd->add_option("--sun-rotation", rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)");
+    cmd->add_option("--sun-elevation", elevation_deg, "Override the sun elevation, degrees")
+        ->check(number_in(-90.0, 90.0));
+    cmd->add_option("--sun-rotation", rotation_deg, "Override the sun rotation (Blender: 0 -> +Y, 90 -> +X)")
+        ->check(number_in(-1e6, 1e6));
 }
 
 void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* command) {
@@ -115,8 +121,8 @@ void apply_camera_overrides(Scene& scene, const CameraOverrides& o, const char* 
     vec(o.direction, c.direction, "--camera-direction");
     vec(o.up, c.up, "--camera-up");
     if (o.fov_deg) {
-        if (!(*o.fov_deg > 0.0 && *o.fov_deg < 180.0))
-            throw CliError(std::string(command) + ": --fov " + std::to_string(*o.fov_deg) + ": must be in (0, 180) degrees");
+        if (!(*o.fov_deg >= 1e-6 && *o.fov_deg < 180.0))
+            throw CliError(std::string(command) + ": --fov " + format_g17(*o.fov_deg) + ": must be in [1e-6, 180) degrees");
         c.fov_deg = *o.fov_deg;
     }
     if (o.max_distance_km) {
@@ -145,7 +151,9 @@ Scene load_render_scene(const std::string& scene_path, const std::string& preset
     if (sun_rotation_deg) {
         if (!std::isfinite(*sun_rotation_deg) || std::abs(*sun_rotation_deg) > 1e6)
             throw CliError(std::string(command) + ": --sun-rotation: must be finite, |value| <= 1e6");
-        scene.sun.azimuth_deg = *sun_rotation_deg;
+        // An angle: any number of turns is the same direction (as `airmass sky`; the scene's
+        // sun.azimuth_deg is kept in [-360, 360]).
+        scene.sun.azimuth_deg = std::fmod(*sun_rotation_deg, 360.0);
     }
     validate(scene);
     return scene;
@@ -198,6 +206,9 @@ CameraModel resized_camera(const Scene& scene, Projection projection, const std:
 
 MediumBox parse_box_km(const std::string& text) {
     const std::vector<double> v = parse_numbers(text, 6, "--box");
+    for (int i = 0; i < 3; ++i)
+        if (!(std::abs(v[i]) <= 1e7 && std::abs(v[i + 3]) <= 1e7 && v[i] < v[i + 3]))
+            throw CliError("render: --box '" + text + "': each corner in [-1e7, 1e7] km, with X0 < X1, Y0 < Y1, Z0 < Z1");
     MediumBox b{glm::dvec3(v[0], v[1], v[2]) * 1000.0, glm::dvec3(v[3], v[4], v[5]) * 1000.0};
     return b;
 }
@@ -247,6 +258,7 @@ void add_render_command(CLI::App& app) {
     add_scene_and_size_options(cmd, o->scene_path, o->preset, o->width, o->height);
     cmd->add_option("-o,--output", o->output, "Output EXR path (written atomically)");
     cmd->add_option("--samples", o->samples, "Samples per scattering constituent along each view ray")
+        ->check(int_in(1, 65536))
         ->capture_default_str();
     cmd->add_option("--chapman", o->chapman, "Chapman method (airmass chapman --list-methods)")->capture_default_str();
     cmd->add_flag("--renderer-matched", o->renderer_matched,
@@ -273,11 +285,12 @@ void add_render_command(CLI::App& app) {
     cmd->add_flag("--sun-disc", o->sun_disc, "Add the solar disc (point-sampled at pixel centres)");
     cmd->add_flag("--no-ground", o->no_ground, "Leave the ground unlit (black)");
     cmd->add_flag("--multiple", o->multiple, "Add multiple scattering (multiple_scattering.hpp tables)");
-    add_ms_options(cmd, o->ms);
+    add_ms_options(cmd, o->ms, 65536);
     cmd->add_option("--box", o->box,
-                    "Cut the medium to this box of the scene frame, km: X0,Y0,Z0,X1,Y1,Z1 (a VDB 'box' export)");
+                    "Cut the medium to this box of the scene frame, km: X0,Y0,Z0,X1,Y1,Z1, each in [-1e7, 1e7] "
+                    "(a VDB 'box' export)");
     add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
-    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
+    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     add_camera_options(cmd, o->camera);
 
@@ -301,7 +314,7 @@ void add_render_command(CLI::App& app) {
         settings.sun_disc = o->sun_disc;
         settings.ground = !o->no_ground;
         settings.multiple_scattering = o->multiple;
-        apply_ms_options("render", o->ms, settings.multiple, settings.multiple_samples, 65536);
+        apply_ms_options("render", o->ms, settings.multiple, settings.multiple_samples, 65536);  // as add_ms_options
         if (!o->box.empty()) settings.medium_box = parse_box_km(o->box);
         settings.threads = o->threads;
         try {

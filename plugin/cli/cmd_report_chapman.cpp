@@ -298,7 +298,7 @@ void add_report_chapman(CLI::App& report) {
     auto per_region = std::make_shared<int>(1500);
     chapman->add_option("--out", *out, "Output directory");
     chapman->add_option("--points", *per_region, "Samples per (x band, chi band) region")
-        ->check(CLI::Range(10, 1000000));
+        ->check(int_in(10, 1000000));
     chapman->callback([=] { run_report(*out, *per_region); });
 }
 

@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -443,10 +444,10 @@ void add_report_ms(CLI::App& report) {
     auto* cmd = report.add_subcommand(
         "ms", "Multiple scattering: error against a Monte Carlo reference vs precompute time and table memory");
     cmd->add_option("--out", o->out, "Output directory")->required();
-    cmd->add_option("--paths", o->paths, "Monte Carlo paths per case and wavelength")->check(CLI::Range(100, 100000000));
-    cmd->add_option("--seed", o->seed, "Monte Carlo seed");
+    cmd->add_option("--paths", o->paths, "Monte Carlo paths per case and wavelength")->check(int_in(100, 100000000));
+    cmd->add_option("--seed", o->seed, "Monte Carlo seed")->check(int_in(0, INT64_MAX));
     cmd->add_option("--threads", o->threads, "Threads for the precompute timings and the Monte Carlo (0: all)")
-        ->check(CLI::Range(0, 4096));
+        ->check(int_in(0, 4096));
     cmd->add_flag("--reuse-reference", o->reuse,
                   "Reuse OUT/ms_reference.csv when it was made with the same --paths and --seed");
     cmd->add_flag("--quick", o->quick, "Skip the 48-wavelength precompute timings");

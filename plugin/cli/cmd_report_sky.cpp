@@ -488,10 +488,10 @@ void add_report_sky(CLI::App& report) {
     cmd->add_option("--out", opt->out, "Output directory")->capture_default_str();
     cmd->add_option("--preset", opt->preset, "Scene preset")->capture_default_str();
     cmd->add_option("--width", opt->width, "Width of the error images (height = width/2)")
-        ->check(CLI::Range(16, 4096))
+        ->check(int_in(16, 4096))
         ->capture_default_str();
     cmd->add_option("--reference-samples", opt->reference_samples, "View samples of the reference")
-        ->check(CLI::Range(16, 65536))
+        ->check(int_in(16, 65536))
         ->capture_default_str();
     cmd->add_flag("--quick", opt->quick, "A small subset (smoke test): 2 methods × 2 sample counts, 3 conditions");
     cmd->callback([opt] { run_report(*opt); });

@@ -48,13 +48,13 @@ void add_report_vdb(CLI::App& report) {
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar");
     cmd->callback([o] {
         namespace fs = std::filesystem;
+        VdbTradeOptions t;
+        if (!o->sizes.empty()) t.voxel_sizes = parse_sizes(o->sizes);  // refused before --out is created
         const fs::path dir(o->out);
         std::error_code ec;
         fs::create_directories(dir, ec);
         if (!fs::is_directory(dir)) throw CliError("report vdb: --out '" + o->out + "' is not a directory");
         const Scene scene = o->scene_path.empty() ? load_preset(o->preset) : load_scene_file(o->scene_path);
-        VdbTradeOptions t;
-        if (!o->sizes.empty()) t.voxel_sizes = parse_sizes(o->sizes);
         t.measure_view_region = !o->no_view;
         t.scratch_dir = dir;
         CancelFlag cancel;

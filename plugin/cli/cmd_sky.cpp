@@ -344,15 +344,21 @@ void add_sky_command(CLI::App& app) {
     auto list_presets = std::make_shared<bool>(false);
     cmd->add_flag("--list-presets", *list_presets, "Print the preset names and exit");
     cmd->add_option("-o,--output", o->output, "Output EXR path (written atomically)");
-    cmd->add_option("--width", o->width, "Image width in pixels, 360°  [default 2048]");
-    cmd->add_option("--height", o->height, "Image height in pixels, 180°  [default width/2]");
+    cmd->add_option("--width", o->width, "Image width in pixels, 360°  [default 2048]")
+        ->check(int_in(4, kSkyMaxDimension));
+    cmd->add_option("--height", o->height, "Image height in pixels, 180°  [default width/2]")
+        ->check(int_in(2, kSkyMaxDimension));
     cmd->add_option("--samples", o->samples, "Samples per scattering constituent along each view ray")
+        ->check(int_in(1, kSkyMaxViewSamples))
         ->capture_default_str();
     cmd->add_option("--chapman", o->chapman, "Chapman method for optical depths (airmass chapman --list-methods)")
         ->capture_default_str();
-    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Sun elevation above the horizon, degrees [-90, 90]");
-    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Sun rotation as Blender's Sky Texture: 0 → +Y, 90 → +X");
-    cmd->add_option("--altitude-km", o->altitude_km, "Observer altitude above the surface, km [0, 1e6] (as [observer] altitude_km)");
+    cmd->add_option("--sun-elevation", o->sun_elevation_deg, "Sun elevation above the horizon, degrees")
+        ->check(number_in(-90.0, 90.0));
+    cmd->add_option("--sun-rotation", o->sun_rotation_deg, "Sun rotation as Blender's Sky Texture: 0 → +Y, 90 → +X")
+        ->check(number_in(-1e6, 1e6));
+    cmd->add_option("--altitude-km", o->altitude_km, "Observer altitude above the surface, km (as [observer] altitude_km)")
+        ->check(number_in(0.0, 1e6));
     cmd->add_flag("--no-sun-disc", o->no_sun_disc, "Leave out the solar disc");
     cmd->add_option("--basis", o->basis, "rgb (Schüler 615/535/445 nm) or spectral  [default: the scene's]")
         ->check(CLI::IsMember({"rgb", "spectral"}));
@@ -362,22 +368,26 @@ void add_sky_command(CLI::App& app) {
         ->check(CLI::IsMember({"full", "upper"}))
         ->capture_default_str();
     cmd->add_option("--grid", o->grid,
-                    "Sky grid: azimuth intervals over 0-180 deg, pixels interpolated (0: every pixel, -1: auto)")
+                    "Sky grid: azimuth intervals over 0-180 deg, pixels interpolated, in [4, 16384] (0: every pixel, -1: auto)")
+        ->check(int_in(-1, kSkyMaxGrid))  // and not 1-3: validate(SkySettings)
         ->capture_default_str();
-    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
+    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
     cmd->add_flag("--no-multiple", o->no_multiple, "Single scattering only (no multiple-scattering tables)");
-    add_ms_options(cmd, o->ms);
+    add_ms_options(cmd, o->ms, kSkyMaxMultipleSamples);
     cmd->add_option("--ms-grid", o->ms_grid,
-                    "Multiple scattering on a sun-aligned grid of this many azimuth intervals, interpolated "
-                    "(0: integrated along every ray)")
+                    "Multiple scattering on a sun-aligned grid of this many azimuth intervals, interpolated, in "
+                    "[2, 16384] (0: integrated along every ray)")
+        ->check(int_in(0, kSkyMaxGrid))
         ->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     cmd->add_option("--time-range", o->time_range,
                     "Sequence: START,END in ISO 8601 UTC (with --fps); -o must contain #### (docs/sun.md)");
     cmd->add_option("--fps", o->fps, "Sequence: frames per second of solar time, or A/B (1/600 = every 10 min)");
     cmd->add_option("--frames", o->frames, "Sequence: render only frames A-B (1-based): a shard of the sequence");
-    cmd->add_option("--latitude", o->latitude_deg, "Sequence: place latitude, degrees  [default: the scene's [sun]]");
-    cmd->add_option("--longitude", o->longitude_deg, "Sequence: place longitude, degrees east  [default: the scene's]");
+    cmd->add_option("--latitude", o->latitude_deg, "Sequence: place latitude, degrees  [default: the scene's [sun]]")
+        ->check(number_in(-90.0, 90.0, Ends::closed, "latitude_deg", "degrees"));
+    cmd->add_option("--longitude", o->longitude_deg, "Sequence: place longitude, degrees east  [default: the scene's]")
+        ->check(number_in(-180.0, 180.0, Ends::closed, "longitude_deg", "degrees"));
     cmd->add_option("--frames-csv", o->frames_csv,
                     "Sequence: the per-frame CSV  [default: beside the frames, e.g. out/sky.csv]");
     add_sun_options(cmd, o->sun, false);
@@ -406,6 +416,8 @@ void add_sky_command(CLI::App& app) {
         settings.threads = o->threads;
         settings.grid = o->grid;
         settings.multiple_scattering = !o->no_multiple;
+        if (o->ms_grid == 1)
+            throw CliError("sky: --ms-grid 1: must be 0 (every ray) or in [2, " + std::to_string(kSkyMaxGrid) + "]");
         settings.multiple_grid = o->ms_grid;
         apply_ms_options("sky", o->ms, settings.multiple, settings.multiple_samples, kSkyMaxMultipleSamples);
         try {

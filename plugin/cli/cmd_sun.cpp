@@ -45,8 +45,10 @@ void add_sun_command(CLI::App& app) {
                "Blender Sky Texture angles for a scene with +Y north");
     auto o = std::make_shared<SunCommandOptions>();
     cmd->add_option("input", o->input, "CSV of latitude_deg,longitude_deg,utc rows  [default: standard input]");
-    cmd->add_option("--latitude", o->latitude_deg, "One place: latitude in degrees, north positive, [-90, 90]");
-    cmd->add_option("--longitude", o->longitude_deg, "One place: longitude in degrees, east positive, [-180, 180]");
+    cmd->add_option("--latitude", o->latitude_deg, "One place: latitude in degrees, north positive")
+        ->check(number_in(-90.0, 90.0, Ends::closed, "latitude_deg", "degrees"));
+    cmd->add_option("--longitude", o->longitude_deg, "One place: longitude in degrees, east positive")
+        ->check(number_in(-180.0, 180.0, Ends::closed, "longitude_deg", "degrees"));
     cmd->add_option("--time", o->time, "One moment: ISO 8601 UTC, e.g. 2026-06-21T12:00:00Z (or with an offset)");
     add_sun_options(cmd, o->sun, true);
 

@@ -107,7 +107,8 @@ void add_vdb_command(CLI::App& app) {
     cmd->add_option("--region", o->region, "planet (whole shell), view (what [camera] sees) or box")
         ->check(CLI::IsMember({"planet", "view", "box"}))
         ->capture_default_str();
-    cmd->add_option("--voxel-size", o->voxel_size, "Voxel edge in --units  [default: automatic, docs/vdb.md]");
+    cmd->add_option("--voxel-size", o->voxel_size, "Voxel edge in --units  [default: automatic, docs/vdb.md]")
+        ->check(number_in(0.0, 1e6, Ends::open_low));
     cmd->add_option("--units", o->units, "Length unit of the world: km (1 BU = 1 km) or m")
         ->check(CLI::IsMember({"km", "m"}))
         ->capture_default_str();
@@ -117,14 +118,20 @@ void add_vdb_command(CLI::App& app) {
     cmd->add_option("--box", o->box, "--region box: xmin,ymin,zmin,xmax,ymax,zmax in --units");
     cmd->add_option("--tolerance", o->tolerance,
                     "Optical depth the inactive cells of a constituent may remove from any ray")
+        ->check(number_in(0.0, 1e300))
         ->capture_default_str();
     cmd->add_option("--max-dense-mb", o->max_dense_mb, "Refuse when Blender 3.4's dense boxes exceed this (MiB)")
+        ->check(number_in(0.0, 1e12, Ends::open_low))
         ->capture_default_str();
     cmd->add_option("--max-memory-mb", o->max_memory_mb, "Refuse before building grids larger than this (MiB)")
+        ->check(number_in(0.0, 1e12, Ends::open_low))
         ->capture_default_str();
-    cmd->add_option("--tile-voxels", o->tile_voxels, "Tile edge in voxels (multiple of 8); 0 automatic, -1 one tile")
+    cmd->add_option("--tile-voxels", o->tile_voxels, "Tile edge in voxels, a multiple of 8 in [8, 65536]; 0 automatic, -1 one tile")
+        ->check(int_in(-1, 65536))  // and a multiple of 8: check_options (vdb_export)
         ->capture_default_str();
-    cmd->add_option("--max-tiles", o->max_tiles, "Most tiles automatic tiling may use")->capture_default_str();
+    cmd->add_option("--max-tiles", o->max_tiles, "Most tiles automatic tiling may use")
+        ->check(int_in(1, 100000))
+        ->capture_default_str();
     cmd->add_option("--rgb", o->rgb, "RGB wavelengths: auto, bruneton (680/550/440 nm), schuler (615/535/445 nm)")
         ->check(CLI::IsMember({"auto", "bruneton", "schuler"}))
         ->capture_default_str();
@@ -135,7 +142,7 @@ void add_vdb_command(CLI::App& app) {
     cmd->add_option("--df3", o->df3, "Also write POV-Ray density files <STEM>.<grid>.df3 + <STEM>.df3.inc");
     cmd->add_flag("--dry-run", o->dry_run, "Build and report, write no grid");
     cmd->add_flag("--json", o->json, "Print the report as JSON on stdout");
-    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->capture_default_str();
+    cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or report");
 
     cmd->callback([o] {

@@ -38,7 +38,9 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // --help and --version: 0. A bad command line (an unknown option, a value out of its
+        // range or not a number: CLI11's own codes 100-127) exits 2 like every other refusal.
+        return app.exit(e) == 0 ? 0 : 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "airmass: %s\n", e.what());
         return 2;

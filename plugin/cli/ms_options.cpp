@@ -8,14 +8,16 @@
 
 namespace airmass::cli {
 
-void add_ms_options(CLI::App* cmd, MsCliOptions& o) {
+void add_ms_options(CLI::App* cmd, MsCliOptions& o, int max_samples) {
     cmd->add_option("--ms-mode", o.mode, "Multiple-scattering tables: orders or isotropic_lut")
         ->check(CLI::IsMember({"orders", "isotropic_lut"}))
         ->capture_default_str();
     cmd->add_option("--ms-orders", o.orders,
                     "Highest scattering order K of the orders tables, in [2, 1000]; 0: until an order adds < 0.1 %")
+        ->check(int_in(0, 1000))  // and not 1: apply_ms_options
         ->capture_default_str();
     cmd->add_option("--ms-samples", o.samples, "Multiple-scattering quadrature intervals per view ray")
+        ->check(int_in(1, max_samples))
         ->capture_default_str();
     cmd->add_option("--ms-table", o.table,
                     "Table nodes ALTITUDE,VIEW_ZENITH,SUN_ZENITH,AZIMUTH (azimuth 0: automatic) "

@@ -27,8 +27,8 @@ struct MsCliOptions {
 // the commands' summary lines.
 std::string table_cache_summary(const MsCliOptions& options);
 
-// --ms-mode, --ms-orders, --ms-samples, --ms-table, --no-cache.
-void add_ms_options(CLI::App* cmd, MsCliOptions& options);
+// --ms-mode, --ms-orders, --ms-samples (in [1, max_samples]), --ms-table, --no-cache.
+void add_ms_options(CLI::App* cmd, MsCliOptions& options, int max_samples);
 
 // Checks the options and writes them into `settings` and `samples` (settings.store: the disk
 // cache, airmass/table_cache.hpp, unless --no-cache); throws CliError naming

@@ -9,15 +9,20 @@ namespace airmass::cli {
 
 void add_sun_options(CLI::App* cmd, SunCliOptions& o, bool full) {
     cmd->add_option("--delta-t", o.delta_t_s,
-                    "ΔT = TT - UT1 in seconds  [default: Espenak-Meeus polynomial for the date; docs/sun.md]");
-    cmd->add_option("--delta-ut1", o.delta_ut1_s, "UT1 - UTC in seconds, |value| <= 1  [default 0]");
+                    "ΔT = TT - UT1 in seconds  [default: Espenak-Meeus polynomial for the date; docs/sun.md]")
+        ->check(number_in(-kMaxAbsDeltaT, kMaxAbsDeltaT));
+    cmd->add_option("--delta-ut1", o.delta_ut1_s, "UT1 - UTC in seconds  [default 0]")
+        ->check(number_in(-kMaxAbsDeltaUt1, kMaxAbsDeltaUt1));
     if (!full) return;
     cmd->add_option("--site-elevation", o.site_elevation_m,
-                    "Observer height above sea level in metres (parallax only)  [default 0]");
+                    "Observer height above sea level in metres (parallax only)  [default 0]")
+        ->check(number_in(-10000.0, 1e7));
     cmd->add_flag("--refraction", o.refraction,
                   "Add atmospheric refraction (SPA's formula) to the elevation; off by default");
-    cmd->add_option("--pressure", o.pressure_mbar, "Air pressure for --refraction, mbar  [default 1010]");
-    cmd->add_option("--temperature", o.temperature_c, "Air temperature for --refraction, °C  [default 10]");
+    cmd->add_option("--pressure", o.pressure_mbar, "Air pressure for --refraction, mbar  [default 1010]")
+        ->check(number_in(0.0, 5000.0, Ends::open_low));
+    cmd->add_option("--temperature", o.temperature_c, "Air temperature for --refraction, °C  [default 10]")
+        ->check(number_in(-273.15, 1000.0, Ends::open));
 }
 
 SolarPositionInput solar_input(const SunCliOptions& o, double latitude_deg, double longitude_deg, const UtcTime& time,

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "airmass/solar_position.hpp"
+#include "commands.hpp"
 
 namespace airmass::cli {
 
@@ -20,6 +21,10 @@ struct SunCliOptions {
     bool refraction = false;
     std::optional<double> pressure_mbar, temperature_c;
 };
+
+// number_in (commands.hpp) whose message reads as the library's for the same value (the Solar
+// Position Algorithm's): "--latitude: latitude_deg = 95: must be in [-90, 90] degrees".
+CLI::Validator number_in(double lo, double hi, Ends ends, const char* field, const char* unit);
 
 // --delta-t, --delta-ut1; with `full`, also --site-elevation, --refraction, --pressure, --temperature.
 void add_sun_options(CLI::App* cmd, SunCliOptions& options, bool full);

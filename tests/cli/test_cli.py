@@ -26,12 +26,7 @@ import pytest
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="module")
-def airmass_bin():
-    path = os.environ.get("AIRMASS_CLI")
-    if not path or not os.path.isfile(path):
-        pytest.fail("set AIRMASS_CLI to the airmass executable (got %r)" % path)
-    return path
+# The airmass_bin fixture: tests/cli/conftest.py.
 
 
 def project_version():
