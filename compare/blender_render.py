@@ -44,6 +44,9 @@ import traceback
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # job_schema.py beside this file
+import job_schema  # noqa: E402
+
 
 
 # ---- small helpers --------------------------------------------------------------------
@@ -678,9 +681,11 @@ def main(argv):
     if len(argv) != 2:
         raise SystemExit("usage: blender -b --python blender_render.py -- JOB.json PATH")
     job_path, path = argv
-    with open(job_path) as f:
-        job = json.load(f)
-    paths = [p["name"] for p in job["plan"]["all_paths"]]  # cmd_compare.cpp's one list
+    try:
+        job = job_schema.load(job_path)
+    except job_schema.JobSchemaError as e:
+        raise SystemExit("blender_render.py: %s" % e) from None
+    paths = [p["name"] for p in job["plan"]["all_paths"]]  # compare_plan.cpp's path table, the one list
     if path not in paths:
         raise SystemExit("blender_render.py: unknown path %r (the job's paths: %s)" % (path, "|".join(paths)))
     planned = job["plan"]["blender_renders"].get(path)
@@ -714,7 +719,7 @@ def main(argv):
     info["render_seconds"] = render_seeds(scene, job, path, out_dir, sun_obj)
     made = RENDERS[0]
     if planned is not None and made != planned:
-        raise RuntimeError("made %d renders where the job's plan says %d (cmd_compare.cpp planned_blender_renders "
+        raise RuntimeError("made %d renders where the job's plan says %d (compare_plan.cpp planned_renders "
                            "and render_seeds disagree)" % (made, planned))
     info["renders"] = made
     info["modes"] = list(info["render_seconds"].keys())

@@ -42,11 +42,13 @@ import traceback
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # job_schema.py beside this file
+import job_schema  # noqa: E402
 
 
 def path_table(job):
     """{path: {"reference": native image, "title": ..., "renderer": "blender" | "povray"}}: the
-    comparison paths as the job's plan carries them (cmd_compare.cpp's kPathTable, the one list)."""
+    comparison paths as the job's plan carries them (compare_plan.cpp's path table, the one list)."""
     return {p["name"]: dict(p, renderer=p.get("renderer", "blender")) for p in job["plan"]["all_paths"]}
 
 
@@ -1073,8 +1075,10 @@ def main(argv):
     B = Backends()
     d = arguments(argv)
     print("report: " + B.describe())
-    with open(os.path.join(d, "job.json"), encoding="utf-8") as f:
-        job = json.load(f)
+    try:
+        job = job_schema.load(os.path.join(d, "job.json"))
+    except job_schema.JobSchemaError as e:
+        raise SystemExit("report.py: %s" % e) from None
     summary, images = analyse(d, job)
     text = markdown(job, summary, images)
     write_outputs(d, {"summary.json": json.dumps(summary, indent=2) + "\n", "report.md": text})

@@ -31,6 +31,12 @@ Positions: 1 Blender unit = 1 km (or 1 m, the panel's Length Unit), the frame of
 volumes and of docs/scene.md (origin on the ground below the observer, Z up, planet centre
 at (0, 0, −R)); the CLI wants metres.
 
+Paths. The add-on keeps no list of comparison paths: `path_list()` is the bundled CLI's
+`airmass compare --list-paths --json` (read once per CLI file when availability is checked),
+the add-on offers its Blender paths (`blender_paths()`; the Paths checkboxes are tested to be
+exactly these) and weights its progress by each path's `step_cost`. Without a working CLI,
+Compare with Native is not available and says why (NotAvailable).
+
 `run(context, ...)` does all of it synchronously (for scripts); the operator
 `airmass.compare` runs the same ComparePlan through jobs.JobOperatorMixin (worker thread,
 progress bar, Esc). Errors are raised as exceptions whose message names the problem.
@@ -55,8 +61,6 @@ from .properties import KM, SettingsError, ensure_folder, make_spec, resolve_out
 
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
 CLI_ENV = "AIRMASS_CLI"  # overrides the bundled CLI (like AIRMASS_C_LIBRARY for the library)
-PATHS = ("sky_texture", "analytic_volume", "analytic_volume_ms", "vdb_volume")
-SPLIT_PATHS = ("analytic_volume", "vdb_volume")  # rendered in the Split / RGB volume modes
 IMAGE_ROLE = "airmass_role"
 IMAGE_PREFIX = "Airmass Compare "
 CANCEL_GRACE_S = 20.0  # the CLI needs ≤ 3 s to stop its Blender; then it is killed
@@ -108,24 +112,60 @@ def availability():
             os.chmod(exe, os.stat(exe).st_mode | 0o755)
         except OSError as e:
             reason = "the Airmass CLI '%s' is not executable and cannot be made so: %s" % (exe, e)
-    for script in ("blender_render.py", "report.py"):
+    for script in ("blender_render.py", "report.py", "job_schema.py"):
         if reason is None and not os.path.isfile(os.path.join(scripts_dir(), script)):
             reason = "the comparison script %s is missing from '%s' (reinstall the add-on)" % (script, scripts_dir())
     if reason is None:
-        try:
-            r = subprocess.run([exe, "compare", "--help"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                               timeout=30, check=False)
-            if r.returncode != 0:
-                reason = "the Airmass CLI '%s' does not run (exit status %d): %s" % (
-                    exe, r.returncode, r.stderr.decode("utf-8", "replace").strip()[-400:])
-        except (OSError, subprocess.SubprocessError) as e:
-            reason = "the Airmass CLI '%s' does not run: %s" % (exe, e)
+        reason = _read_path_list(exe, key)
     _availability[key] = reason
     return reason
 
 
 def available():
     return availability() is None
+
+
+# ---- the comparison paths: the CLI's one list ------------------------------------------------------
+
+_path_lists = {}  # (CLI file, mtime) -> `airmass compare --list-paths --json`'s "paths"
+
+
+def _read_path_list(exe, key):
+    """Runs `airmass compare --list-paths --json` (which also shows that the CLI runs); None, or
+    why it cannot be used."""
+    try:
+        r = subprocess.run([exe, "compare", "--list-paths", "--json"], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, timeout=30, check=False)
+    except (OSError, subprocess.SubprocessError) as e:
+        return "the Airmass CLI '%s' does not run: %s" % (exe, e)
+    if r.returncode != 0:
+        return "the Airmass CLI '%s' does not run (exit status %d): %s" % (
+            exe, r.returncode, r.stderr.decode("utf-8", "replace").strip()[-400:])
+    try:
+        paths = json.loads(r.stdout.decode("utf-8", "replace"))["paths"]
+        if not paths or not all(isinstance(p.get("name"), str) and p.get("renderer") for p in paths):
+            raise ValueError("no paths")
+    except (ValueError, KeyError, TypeError, AttributeError) as e:
+        return "the Airmass CLI '%s' printed no list of comparison paths (compare --list-paths --json: %s); " \
+               "reinstall the add-on" % (exe, e)
+    _path_lists[key] = paths
+    return None
+
+
+def path_list():
+    """The comparison paths of the bundled CLI, in its order — `airmass compare --list-paths
+    --json`: name, renderer, what it renders, native reference, modes, render count, step cost.
+    Raises NotAvailable (the reason) when the CLI is missing or does not run."""
+    reason = availability()
+    if reason:
+        raise NotAvailable("Compare with Native is not available: " + reason)
+    exe = cli_path()
+    return _path_lists[(exe, os.stat(exe).st_mtime_ns)]
+
+
+def blender_paths():
+    """The paths the add-on renders (in this Blender): the CLI's paths whose renderer is Blender."""
+    return [p["name"] for p in path_list() if p["renderer"] == "blender"]
 
 
 # ---- the scene as TOML -----------------------------------------------------------------------
@@ -261,15 +301,17 @@ class _Progress:
     Blender path with the number of Cycles renders it makes; within a Blender step the renders
     done are the lines blender_render.py logs per written image."""
 
-    # Relative cost of a step, by kind (a Blender volume path is the slow part).
-    @staticmethod
-    def _weight(step, path):
-        if step.startswith("blender "):
-            return 4.0 if path == "sky_texture" else 10.0
+    def _weight(self, step, path):
+        """Relative cost of a step: a renderer step's is the path list's step_cost (a Blender
+        volume path is the slow part); the inputs and the report 2, a native render 1."""
+        info = self.paths.get(path)
+        if info is not None and step == "%s %s" % (info["renderer"], path):
+            return float(info.get("step_cost", 1.0))
         return {"sky_texture_input": 2.0, "report": 2.0}.get(step, 1.0)
 
-    def __init__(self, work_dir):
+    def __init__(self, work_dir, paths=()):
         self.work_dir = work_dir
+        self.paths = {p["name"]: p for p in paths}  # path_list()
         self.file = os.path.join(work_dir, PROGRESS_FILE)
         self.offset = 0
         self.pending = ""
@@ -348,10 +390,6 @@ class _Progress:
 
 # ---- the plan --------------------------------------------------------------------------------------
 
-def _flag_paths(flags):
-    return [p for p in PATHS if p.upper() in flags]
-
-
 def _remove_tree(path):
     if path and os.path.isdir(path):
         shutil.rmtree(path, ignore_errors=True)
@@ -368,22 +406,22 @@ class ComparePlan(Plan):
                  volume_modes=None, output_folder=None):
         scene = context.scene
         s = scene.airmass
-        reason = availability()
-        if reason:
-            raise NotAvailable("Compare with Native is not available: " + reason)
+        self.path_list = path_list()  # raises NotAvailable (the reason) without a working CLI
+        names = [p["name"] for p in self.path_list if p["renderer"] == "blender"]
         self.settings = s
         self.width = int(width if width is not None else s.compare_width)
         self.samples = int(samples if samples is not None else s.compare_samples)
         self.seeds = int(seeds if seeds is not None else s.compare_seeds)
-        self.paths = list(paths) if paths is not None else _flag_paths(s.compare_paths)
+        self.paths = list(paths) if paths is not None else [p for p in names if p.upper() in s.compare_paths]
         self.volume_modes = list(volume_modes) if volume_modes is not None else \
             [m.lower() for m in ("SPLIT", "RGB", "RGB_DITHER") if m in s.compare_volume_modes]
         if not self.paths:
             raise SettingsError("Compare with Native: no path chosen (tick Sky Texture, Analytic Volume or VDB Volume)")
-        bad = [p for p in self.paths if p not in PATHS]
+        bad = [p for p in self.paths if p not in names]
         if bad:
-            raise SettingsError("Compare with Native: unknown path %s (allowed: %s)" % (bad[0], ", ".join(PATHS)))
-        if any(p in SPLIT_PATHS for p in self.paths) and not self.volume_modes:
+            raise SettingsError("Compare with Native: unknown path %s (allowed: %s)" % (bad[0], ", ".join(names)))
+        split = [p["name"] for p in self.path_list if p.get("volume_modes")]  # rendered per Split / RGB mode
+        if any(p in split for p in self.paths) and not self.volume_modes:
             raise SettingsError("Compare with Native: choose a volume render mode (Split and/or RGB)")
         for name, value, lo, hi in (("Width", self.width, 4, 16384), ("Samples", self.samples, 1, 1 << 20),
                                     ("Seeds", self.seeds, 2, 1000)):
@@ -433,7 +471,7 @@ class ComparePlan(Plan):
         scene_file = os.path.join(self.work_dir, "scene.toml")
         with open(scene_file, "w", encoding="utf-8") as f:
             f.write(self.scene_text)
-        tracker = _Progress(self.work_dir)
+        tracker = _Progress(self.work_dir, self.path_list)
         lines = queue.Queue()
         output = []
         proc = subprocess.Popen(self.command(scene_file), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,

@@ -12,7 +12,10 @@
 //       --timeout S --sun-elevation DEG --sun-rotation DEG --volume-modes split,rgb
 //       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
 //       --max-distance KM --progress-json FILE|-|fd:N --no-blender --quiet]
+//   airmass compare --list-paths [--json]
 //
+// This file runs a plan (compare_plan.hpp: the path table, the native renders and steps each
+// path needs, the job schema, the checks of the options): options → plan → run → report.
 // What it does, in order (every file lands in DIR):
 //   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
 //      functions), native_hg_spectral.exr (Henyey–Greenstein phases), native_matched.exr
@@ -53,6 +56,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -68,6 +72,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
+#include "compare_plan.hpp"
 #include "vdb_module.hpp"
 #include "pov_scene.hpp"
 #include "render_options.hpp"
@@ -79,89 +84,26 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// The comparison paths — the one list (job.json's plan carries it to blender_render.py, report.py
-// and the add-on): name, the native image it is compared with, its title in the report, and the
-// renderer that makes it: "blender" (compare/blender_render.py, which writes blender_<path>.json)
-// or "povray" (the scene of `airmass pov --path <path without pov_>`, rendered here; this
-// command writes povray_<path>.json). Both run as children of run_process.
-struct ComparePath {
-    const char* name;
-    const char* reference;
-    const char* title;
-    const char* renderer;
-};
-const std::vector<ComparePath> kPathTable = {
-    {"sky_texture", "native_physical_box", "Sky texture as World background", "blender"},
-    {"analytic_volume", "native_matched", "Analytic (node-tree) volume lit by a Sun lamp", "blender"},
-    {"analytic_volume_ms", "native_matched_ms",
-     "Analytic volume with multiple scattering (Cycles volume and diffuse bounces)", "blender"},
-    {"vdb_volume", "native_matched_box", "VDB volume lit by a Sun lamp", "blender"},
-    {"pov_sky", "native_physical_box", "POV-Ray: sky texture as sky_sphere", "povray"},
-    {"pov_analytic", "native_povray_matched", "POV-Ray: media with function-pattern densities, parallel sun light",
-     "povray"},
-    {"pov_df3", "native_povray_matched_box", "POV-Ray: media with df3 densities (the camera's box), parallel sun light",
-     "povray"},
-};
-const ComparePath& path_entry(const std::string& name) {
-    for (const auto& p : kPathTable)
-        if (name == p.name) return p;
-    throw std::logic_error("compare: no path " + name);
-}
-bool is_povray(const std::string& path) { return std::string(path_entry(path).renderer) == "povray"; }
-const std::vector<std::string> kPaths = [] {
-    std::vector<std::string> v;
-    for (const auto& p : kPathTable) v.emplace_back(p.name);
-    return v;
-}();
-
-// A comma-separated list of names, each one of `allowed`; errors name the option.
-std::vector<std::string> parse_choices(const std::string& text, const std::string& option,
-                                       const std::vector<std::string>& allowed) {
-    std::vector<std::string> out;
-    std::stringstream ss(text);
-    for (std::string v; std::getline(ss, v, ',');) {
-        if (std::find(allowed.begin(), allowed.end(), v) == allowed.end()) {
-            std::string list;
-            for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-            throw CliError("compare: " + option + ": '" + v + "' is not one of " + list);
-        }
-        out.push_back(v);
-    }
-    if (out.empty()) throw CliError("compare: " + option + ": empty");
-    return out;
-}
-
 struct CompareOptions {
     std::string scene_path, preset, output;
     std::optional<int> width, height;
     bool panoramic = false;
-    int samples = 64;       // Cycles samples per seed for the volume paths
-    int seeds = 4;          // independent Blender renders per volume path (noise estimate)
-    int sky_samples = 64;   // per seed for the sky texture path (box filter: pixel-area noise only)
-    std::string paths = "sky_texture,analytic_volume,vdb_volume";
-    std::string volume_modes = "split,rgb,rgb_dither";
-    std::string ms_modes = "dither,closures";
-    int ms_bounces = 64;    // Cycles volume and diffuse bounces of analytic_volume_ms
-    int view_samples = 64;  // native: samples per constituent along each view ray
-    double sky_oversample = 4.0;
+    compare::PlanInputs plan;  // what is rendered (compare_plan.hpp)
     int sky_min_width = 2048;
     int sky_max_width = 8192;
     std::optional<double> voxel_size_km;
     double max_dense_mb = 600.0;
-    double step_km = 1.0;
-    int max_steps = 1024;
     std::string blender = "blender";
     std::string povray = "povray";
-    std::optional<int> pov_intervals, pov_samples;  // media sampling [default: `airmass pov`'s rule]
     bool pov_refine = true;  // a second render at 2x the intervals: the sampling error, measured
     std::string python;  // empty: the report runs in `blender`
     std::string scripts, addon;
     int threads = 0;
-    double timeout_s = 3600.0;
     std::optional<double> sun_elevation_deg, sun_rotation_deg;
     bool quiet = false;
     bool no_report = false;
     bool no_blender = false;
+    bool list_paths = false, list_json = false;  // --list-paths [--json]: print the table, run nothing
     std::string progress_json;  // "", "-" (stderr), "fd:N" or a file: JSON-lines progress events
     render_detail::CameraOverrides camera;
 };
@@ -218,24 +160,6 @@ private:
     bool owned_ = false;
     std::vector<std::string> steps_;
 };
-
-// The Cycles renders blender_render.py makes for `path` (its render_seeds), from the job.
-int planned_blender_renders(const nlohmann::json& job, const std::string& path) {
-    if (is_povray(path)) return int(job["pov"][path]["runs"].size());  // POV-Ray processes
-    const int seeds = job["seeds"][path].get<int>();
-    if (path == "sky_texture") return seeds;
-    if (path == "analytic_volume_ms") return seeds * 3 * int(job["multiple"]["modes"].size());
-    int scatterers = 0;
-    if (job.contains("constituents"))
-        for (const auto& c : job["constituents"]) {
-            double m = 0.0;
-            for (const auto& v : c["scattering_rgb"]) m = std::max(m, v.get<double>());
-            scatterers += m > 0.0;
-        }
-    int per_seed = 0;
-    for (const auto& m : job["volume_modes"]) per_seed += m.get<std::string>() == "split" ? 3 * scatterers : 1;
-    return seeds * per_seed;
-}
 
 void write_text(const fs::path& path, const std::string& text) { write_text_atomic(path, text); }
 
@@ -361,32 +285,51 @@ json native_entry(const Scene& scene, const std::string& file, double seconds, c
     return j;
 }
 
-void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
+// The settings of each native render the plan names (compare::Plan::natives), from `base` (the
+// camera, view samples, threads).
+RenderSettings native_settings(const std::string& name, const RenderSettings& base,
+                               const std::array<double, 3>& rgb_wl, const std::optional<MediumBox>& box) {
+    RenderSettings s = base;
+    if (name == "native_physical") return s;
+    if (name == "native_physical_box") {
+        // The sky texture path is rendered with Cycles' Box filter (the pixel's mean): a texture
+        // of finite resolution cannot put the horizon's jump where a single ray per pixel finds
+        // it, but it integrates to the right pixel mean (docs/compare.md).
+        // Multiple scattering included, as in the sky texture users make (SkySettings' default).
+        s.pixel_filter = PixelFilter::box;
+        s.multiple_scattering = true;
+        return s;
+    }
+    s.renderer_matched = true;
+    if (name == "native_hg_spectral") return s;
+    s.color = ColorModel::renderer_rgb;
+    s.rgb_wavelengths_nm = rgb_wl;
+    if (name == "native_matched") return s;
+    if (name == "native_matched_ms") {
+        s.multiple_scattering = true;  // the default tables (multiple_scattering.hpp)
+        return s;
+    }
+    const bool boxed = name == "native_matched_box" || name == "native_povray_matched_box";
+    if (boxed) {
+        if (!box) throw std::logic_error("compare: " + name + " without the view box");
+        s.medium_box = box;
+    }
+    if (name == "native_matched_box") return s;
+    // POV-Ray's media: the Rayleigh phase kept (scattering type 4), the rest as the HG of the
+    // one rule (type 5), three wavelengths lit by the sun's RGB irradiance (docs/povray.md).
+    s.matched_renderer = MatchedRenderer::povray;
+    if (name == "native_povray_matched" || name == "native_povray_matched_box") return s;
+    throw std::logic_error("compare: no native render " + name);
+}
+
+void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, ProgressEvents& events) {
     using namespace render_detail;
     const Scene scene =
         load_render_scene(o.scene_path, o.preset, o.sun_elevation_deg, o.sun_rotation_deg, "compare", o.camera);
     const Projection projection = o.panoramic ? Projection::equirectangular : Projection::perspective;
     const CameraModel cam = resized_camera(scene, projection, o.width, o.height, SensorFit::automatic);
-    auto range = [](const char* opt, double v, double lo, double hi) {
-        if (!(v >= lo && v <= hi))
-            throw CliError(std::string("compare: ") + opt + " " + std::to_string(v) + ": must be in [" +
-                           std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    };
-    range("--samples", o.samples, 1, 1 << 20);
-    range("--seeds", o.seeds, 2, 1000);
-    range("--view-samples", o.view_samples, 1, 65536);
-    range("--sky-oversample", o.sky_oversample, 0.25, 16);
-    range("--step", o.step_km, 1e-4, 1e3);
-    range("--max-steps", o.max_steps, 2, 65536);
-    range("--ms-bounces", o.ms_bounces, 1, 1024);
-    range("--timeout", o.timeout_s, 1, 1e6);
-    if (o.pov_intervals) range("--pov-intervals", *o.pov_intervals, 1, 100000);
-    if (o.pov_samples) range("--pov-samples", *o.pov_samples, 1, 100000);
-    const std::vector<std::string> paths = parse_choices(o.paths, "--paths", kPaths);
-    auto wants = [&](const char* p) { return std::find(paths.begin(), paths.end(), p) != paths.end(); };
-    auto wants_any = [&](std::initializer_list<const char*> ps) {
-        return std::any_of(ps.begin(), ps.end(), [&](const char* p) { return wants(p); });
-    };
+    const std::vector<std::string>& paths = plan.paths;
+    auto wants = [&](std::string_view p) { return plan.wants(p); };
     const fs::path scripts = find_scripts_dir(o.scripts);
     const fs::path addon = o.addon.empty() ? scripts.parent_path() / "addon" : fs::path(o.addon);
     const fs::path dir = fs::absolute(o.output);
@@ -398,27 +341,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     } catch (const FileWriteError& e) {
         throw CliError(std::string("compare: ") + e.what());
     }
-
-    // The plan: every step of this run, in order (the progress events' index / total).
-    {
-        std::vector<std::string> steps{"native_physical"};
-        if (wants_any({"sky_texture", "pov_sky"})) steps.push_back("native_physical_box");
-        steps.push_back("native_hg_spectral");
-        steps.push_back("native_matched");
-        if (wants("analytic_volume_ms")) steps.push_back("native_matched_ms");
-        if (wants("vdb_volume")) steps.push_back("native_matched_box");
-        if (wants_any({"pov_analytic", "pov_df3"})) steps.push_back("native_povray_matched");
-        if (wants("pov_df3")) steps.push_back("native_povray_matched_box");
-        if (wants("sky_texture")) steps.push_back("sky_texture_input");
-        if (wants("vdb_volume")) steps.push_back("vdb_export");
-        for (const auto& p : paths)
-            if (is_povray(p)) steps.push_back("pov_scene " + p);
-        if (!o.no_blender) {
-            for (const auto& p : paths) steps.push_back(std::string(path_entry(p).renderer) + " " + p);
-            if (!o.no_report) steps.push_back("report");
-        }
-        events.set_steps(steps);
-    }
+    events.set_steps(plan.steps);  // every step of this run, in order (the events' index / total)
 
     CancelFlag cancel;
     InterruptGuard guard(cancel);
@@ -427,42 +350,29 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         if (cancel.requested()) throw Cancelled("compare: cancelled");
     };
 
-    json job;
-    job["format"] = "airmass-compare-job-1";
+    json job = compare::job_header(plan);
     job["scene_name"] = scene.name;
     job["scene_json"] = json::parse(scene_to_json(scene));
     job["camera"] = json::parse(camera_to_json(cam, 1000.0));
     job["camera"]["clip_start"] = 1e-4;
     job["camera"]["clip_end"] = 1e6;
-    job["paths_requested"] = paths;
     job["addon_dir"] = addon.string();
     job["blender_threads"] = o.threads;
-    // POV-Ray's media sampling is deterministic (3.7 seeds its jitter the same every run: two renders
-    // are bit-identical, docs/povray.md), so a pov path is one "seed"; its samples are the media
-    // intervals (set with the scene below).
-    job["seeds"] = {{"sky_texture", 2}, {"analytic_volume", o.seeds}, {"analytic_volume_ms", o.seeds},
-                    {"vdb_volume", o.seeds}, {"pov_sky", 1}, {"pov_analytic", 1}, {"pov_df3", 1}};
-    job["samples"] = {{"sky_texture", o.sky_samples}, {"analytic_volume", o.samples},
-                      {"analytic_volume_ms", o.samples}, {"vdb_volume", o.samples}, {"pov_sky", 0},
-                      {"pov_analytic", 0}, {"pov_df3", 0}};
-    job["errors"] = json::object();
-    job["volume_modes"] = parse_choices(o.volume_modes, "--volume-modes", {"split", "rgb", "rgb_dither"});
     // analytic_volume_ms (blender_render.py): per channel one grey render of the whole medium,
     // its scatterers' phases either dithered into one closure (unbiased) or one closure each
     // (Cycles 3.4's phase-summing bias, measured).
-    job["multiple"] = {{"modes", parse_choices(o.ms_modes, "--ms-modes", {"dither", "closures"})},
-                       {"bounces", o.ms_bounces}};
+    job["multiple"] = {{"modes", plan.ms_modes}, {"bounces", o.plan.ms_bounces}};
 
     // ---- native renders -------------------------------------------------------------------
     RenderSettings base;
     base.camera = cam;
-    base.view_samples = o.view_samples;
+    base.view_samples = o.plan.view_samples;
     base.threads = o.threads;
     const std::array<double, 3> rgb_wl = exporter_rgb_wavelengths(scene, "auto");
     const double R = scene.planet.radius_m;
     const ObserverFrame frame = observer_frame(R, cam.pose.position_m);
     std::optional<MediumBox> box;
-    if (wants_any({"vdb_volume", "pov_df3"})) box = view_box(scene, cam);  // `airmass pov --path df3` cuts the same
+    if (plan.needs_view_box()) box = view_box(scene, cam);  // `airmass pov --path df3` cuts the same
 
     json natives = json::object();
     auto native = [&](const std::string& name, RenderSettings s) {
@@ -503,46 +413,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         events.emit(done);
         say(o.quiet, "native " + name + ": " + std::to_string(seconds) + " s");
     };
-    native("native_physical", base);
-    if (wants_any({"sky_texture", "pov_sky"})) {
-        // The sky texture path is rendered with Cycles' Box filter (the pixel's mean): a texture
-        // of finite resolution cannot put the horizon's jump where a single ray per pixel finds
-        // it, but it integrates to the right pixel mean (docs/compare.md).
-        // Multiple scattering included, as in the sky texture users make (SkySettings' default).
-        RenderSettings s = base;
-        s.pixel_filter = PixelFilter::box;
-        s.multiple_scattering = true;
-        native("native_physical_box", s);
-    }
-    {
-        RenderSettings s = base;
-        s.renderer_matched = true;
-        native("native_hg_spectral", s);
-        s.color = ColorModel::renderer_rgb;
-        s.rgb_wavelengths_nm = rgb_wl;
-        native("native_matched", s);
-        if (wants("analytic_volume_ms")) {
-            RenderSettings m = s;
-            m.multiple_scattering = true;  // the default tables (multiple_scattering.hpp)
-            native("native_matched_ms", m);
-        }
-        if (box && wants("vdb_volume")) {
-            RenderSettings b = s;
-            b.medium_box = box;
-            native("native_matched_box", b);
-        }
-        // POV-Ray's media: the Rayleigh phase kept (scattering type 4), the rest as the HG of the
-        // one rule (type 5), three wavelengths lit by the sun's RGB irradiance (docs/povray.md).
-        if (wants_any({"pov_analytic", "pov_df3"})) {
-            RenderSettings m = s;
-            m.matched_renderer = MatchedRenderer::povray;
-            native("native_povray_matched", m);
-            if (wants("pov_df3")) {
-                m.medium_box = box;
-                native("native_povray_matched_box", m);
-            }
-        }
-    }
+    for (const auto& name : plan.natives) native(name, native_settings(name, base, rgb_wl, box));
     job["native"] = natives;
 
     // ---- the sun lamp and the planet, km -----------------------------------------------------
@@ -567,7 +438,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     job["rgb_wavelengths_nm"] = rgb_wl;
     job["ground"] = {{"ground_segments", 256}, {"ground_first_km", 1e-4}, {"ground_growth", 1.06},
                      {"ground_max_step_deg", 0.5}};
-    job["volume"] = {{"step_km", o.step_km}, {"max_steps", o.max_steps}, {"domain_margin_km", 5.0}};
+    job["volume"] = {{"step_km", o.plan.step_km}, {"max_steps", o.plan.max_steps}, {"domain_margin_km", 5.0}};
 
     auto step_done = [&](const std::string& step, const std::string& path, bool ok, double seconds) {
         json e = events.event("render_done", step, path);
@@ -595,14 +466,14 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             } else {
                 pixel_rad = 2.0 * std::numbers::pi / cam.width;
             }
-            int w = int(std::ceil(o.sky_oversample * 2.0 * std::numbers::pi / pixel_rad / 4.0)) * 4;
+            int w = int(std::ceil(o.plan.sky_oversample * 2.0 * std::numbers::pi / pixel_rad / 4.0)) * 4;
             w = std::clamp(std::max(w, o.sky_min_width), 64, std::max(o.sky_max_width, 64));
             Scene sky_scene = scene;
             sky_scene.observer.altitude_m = frame.altitude_m;
             SkySettings ss;
             ss.width = w;
             ss.height = w / 2;
-            ss.view_samples = o.view_samples;
+            ss.view_samples = o.plan.view_samples;
             ss.sun_disc = false;
             ss.grid = -1;  // what `airmass sky` does by default (its error: docs/sky.md)
             ss.multiple_scattering = true;  // as `airmass sky` by default, and native_physical_box
@@ -637,7 +508,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     }
     std::vector<json> constituents;
     // (The pov media paths carry them too: the report's voxelisation estimate reads them.)
-    if (wants_any({"analytic_volume", "analytic_volume_ms", "vdb_volume", "pov_analytic", "pov_df3"})) {
+    if (plan.needs_constituents()) {
         try {
             VdbOptions vo;
             vo.unit = LengthUnit::km;
@@ -717,7 +588,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     // before POV-Ray starts.
     job["pov"] = json::object();
     for (const auto& p : paths) {
-        if (!is_povray(p)) continue;
+        if (compare::path_info(p).renderer != compare::Renderer::povray) continue;
         const std::string step = "pov_scene " + p;
         events.emit(events.event("render_start", step, p));
         try {
@@ -728,10 +599,10 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             so.threads = o.threads;
             so.progress_bar = bar_on;
             if (so.path == "sky") {
-                so.sky_oversample = o.sky_oversample;
+                so.sky_oversample = o.plan.sky_oversample;
             } else {
-                so.media_intervals = o.pov_intervals;
-                so.media_samples = o.pov_samples;
+                so.media_intervals = o.plan.pov_intervals;
+                so.media_samples = o.plan.pov_samples;
             }
             if (so.path == "df3") so.voxel_size_km = o.voxel_size_km;
             const auto t0 = std::chrono::steady_clock::now();
@@ -786,19 +657,10 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
             step_done(step, p, false, 0.0);
         }
     }
-    // The plan, for blender_render.py, report.py and the add-on: every path this CLI knows (the
-    // one list: kPaths), those requested, the steps of the progress events, and how many Cycles
+    // The plan, for blender_render.py, report.py and the add-on: every path (the one table,
+    // compare_plan.cpp), those requested, the steps of the progress events, and how many Cycles
     // renders each Blender path makes (and POV-Ray processes each POV-Ray path runs).
-    {
-        json renders = json::object(), pov_renders = json::object();
-        for (const auto& p : paths)
-            if (!job["errors"].contains(p)) (is_povray(p) ? pov_renders : renders)[p] = planned_blender_renders(job, p);
-        json table = json::array();
-        for (const auto& p : kPathTable)
-            table.push_back({{"name", p.name}, {"reference", p.reference}, {"title", p.title}, {"renderer", p.renderer}});
-        job["plan"] = {{"all_paths", table}, {"paths", paths}, {"blender_renders", renders},
-                       {"povray_renders", pov_renders}};
-    }
+    job["plan"] = compare::plan_json(plan, job);
     write_text(dir / "job.json", job.dump(2) + "\n");
     if (o.no_blender) {
         events.emit(json{{"event", "done"}, {"ok", true}});
@@ -807,7 +669,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     }
 
     // ---- the renderers: Blender and POV-Ray --------------------------------------------------------
-    // One loop for both (kPathTable's renderer): each path is a list of child processes run by
+    // One loop for both (the path table's renderer): each path is a list of child processes run by
     // run_process (own process group, killed on Ctrl-C or timeout), its log <renderer>_<path>.log.
     // Blender: one process running blender_render.py, which writes blender_<path>.json. POV-Ray:
     // one process per split pass (and refined pass), from DIR (the scene's inputs are relative
@@ -815,9 +677,9 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     json blender_runs = json::object();
     for (const auto& p : paths) {
         check_cancel();
-        const std::string renderer = path_entry(p).renderer;
+        const std::string renderer = compare::renderer_name(compare::path_info(p).renderer);
         const bool pov = renderer == "povray";
-        const std::string step = renderer + " " + p;
+        const std::string step = compare::renderer_step(p);
         {
             json e = events.event("render_start", step, p);
             e["renders"] = job["plan"][pov ? "povray_renders" : "blender_renders"].value(p, 0);
@@ -851,7 +713,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
         std::vector<double> run_seconds;
         for (const auto& r : runs) {
             const auto t1 = std::chrono::steady_clock::now();
-            rc = run_process(r.argv, log, o.timeout_s, cancel, timed_out, r.cwd);
+            rc = run_process(r.argv, log, o.plan.timeout_s, cancel, timed_out, r.cwd);
             run_seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
             check_cancel();
             if (rc != 0) break;
@@ -932,7 +794,7 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     events.emit(events.event("render_start", "report"));
     const auto t_report = std::chrono::steady_clock::now();
     bool timed_out = false;
-    const int rc = run_process(report_argv, log, o.timeout_s, cancel, timed_out);
+    const int rc = run_process(report_argv, log, o.plan.timeout_s, cancel, timed_out);
     check_cancel();
     if (rc != 0 || !fs::is_regular_file(dir / "summary.json") || !fs::is_regular_file(dir / "report.md"))
         throw CliError("compare: the report (compare/report.py in " + runner + ") " +
@@ -945,11 +807,16 @@ void run_compare_steps(const CompareOptions& o, ProgressEvents& events) {
     say(o.quiet, "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
 }
 
-// run_compare_steps with its progress events: a failure ends them with error and done {ok: false}.
+// Options → plan → run → report. The plan's checks come first (no file is touched for a bad
+// option); run_compare_steps' progress events end, on a failure, with error and done {ok: false}.
 void run_compare(const CompareOptions& o) {
+    compare::PlanInputs in = o.plan;
+    in.renderers = !o.no_blender;
+    in.report = !o.no_report;
+    const compare::Plan plan = compare::make_plan(in);
     ProgressEvents events(o.progress_json);
     try {
-        run_compare_steps(o, events);
+        run_compare_steps(o, plan, events);
     } catch (const std::exception& ex) {
         events.emit(json{{"event", "error"}, {"step", nullptr}, {"path", nullptr}, {"message", ex.what()}});
         events.emit(json{{"event", "done"}, {"ok", false}});
@@ -971,33 +838,33 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--width", o->width, "Image width [default: the camera's]")->check(int_in(1, 65536));
     cmd->add_option("--height", o->height, "Image height [default: keeps the camera's aspect]")->check(int_in(1, 65536));
     cmd->add_flag("--panoramic", o->panoramic, "Equirectangular panoramic camera instead of perspective");
-    cmd->add_option("--samples", o->samples, "Cycles samples per seed, volume paths")
+    cmd->add_option("--samples", o->plan.samples, "Cycles samples per seed, volume paths")
         ->capture_default_str()
         ->check(int_in(1, 1 << 20));
-    cmd->add_option("--seeds", o->seeds, "Independent Blender renders per volume path (>= 2; noise estimate)")
+    cmd->add_option("--seeds", o->plan.seeds, "Independent Blender renders per volume path (>= 2; noise estimate)")
         ->capture_default_str()->check(int_in(2, 1000));
-    cmd->add_option("--sky-samples", o->sky_samples, "Cycles samples per seed, sky texture path")
+    cmd->add_option("--sky-samples", o->plan.sky_samples, "Cycles samples per seed, sky texture path")
         ->capture_default_str()
         ->check(int_in(1, 1 << 20));
-    cmd->add_option("--paths", o->paths,
-                    "Comma-separated subset of sky_texture,analytic_volume,analytic_volume_ms,vdb_volume,pov_sky,"
-                    "pov_analytic,pov_df3 (analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces "
-                    "on; pov_*: headless POV-Ray 3.7, docs/povray.md)")
+    cmd->add_option("--paths", o->plan.paths,
+                    "Comma-separated subset of " + compare::path_names() +
+                        " (analytic_volume_ms: multiple scattering, Cycles volume and diffuse bounces on; pov_*: "
+                        "headless POV-Ray 3.7, docs/povray.md; --list-paths describes each)")
         ->capture_default_str();
-    cmd->add_option("--volume-modes", o->volume_modes,
+    cmd->add_option("--volume-modes", o->plan.volume_modes,
                     "Blender volume renders: split (grey, one Volume Scatter per render, summed: unbiased in "
                     "Cycles 3.4), rgb (one chromatic render with every closure, as users render), rgb_dither (one "
                     "chromatic render, the scatterers' phases dithered into one Volume Scatter)")
         ->capture_default_str();
-    cmd->add_option("--ms-modes", o->ms_modes,
+    cmd->add_option("--ms-modes", o->plan.ms_modes,
                     "analytic_volume_ms renders: dither (one Volume Scatter whose anisotropy is picked per point: "
                     "unbiased) and/or closures (one Volume Scatter per constituent: Cycles 3.4's phase-summing bias)")
         ->capture_default_str();
-    cmd->add_option("--ms-bounces", o->ms_bounces, "Cycles volume and diffuse bounces of analytic_volume_ms")
+    cmd->add_option("--ms-bounces", o->plan.ms_bounces, "Cycles volume and diffuse bounces of analytic_volume_ms")
         ->capture_default_str()->check(int_in(1, 1024));
-    cmd->add_option("--view-samples", o->view_samples, "Native: samples per constituent along each view ray")
+    cmd->add_option("--view-samples", o->plan.view_samples, "Native: samples per constituent along each view ray")
         ->capture_default_str()->check(int_in(1, 65536));
-    cmd->add_option("--sky-oversample", o->sky_oversample, "Sky texture texels per camera pixel (at the centre)")
+    cmd->add_option("--sky-oversample", o->plan.sky_oversample, "Sky texture texels per camera pixel (at the centre)")
         ->capture_default_str()->check(number_in(0.25, 16.0));
     cmd->add_option("--sky-min-width", o->sky_min_width, "Smallest sky texture width")
         ->capture_default_str()
@@ -1009,10 +876,10 @@ void add_compare_command(CLI::App& app) {
         ->check(number_in(0.0, 1e6, Ends::open_low));
     cmd->add_option("--max-dense-mb", o->max_dense_mb, "Budget for Blender 3.4's dense VDB boxes, MiB")
         ->capture_default_str()->check(number_in(0.0, 1e12, Ends::open_low));
-    cmd->add_option("--step", o->step_km, "Cycles volume step for the analytic volume, km")
+    cmd->add_option("--step", o->plan.step_km, "Cycles volume step for the analytic volume, km")
         ->capture_default_str()
         ->check(number_in(1e-4, 1e3));
-    cmd->add_option("--max-steps", o->max_steps, "Cycles volume_max_steps")
+    cmd->add_option("--max-steps", o->plan.max_steps, "Cycles volume_max_steps")
         ->capture_default_str()
         ->check(int_in(2, 65536));
     cmd->add_option("--blender", o->blender,
@@ -1020,10 +887,10 @@ void add_compare_command(CLI::App& app) {
                     "numpy only) unless --python is given")
         ->capture_default_str();
     cmd->add_option("--povray", o->povray, "POV-Ray 3.7 executable (the pov_* paths)")->capture_default_str();
-    cmd->add_option("--pov-intervals", o->pov_intervals,
+    cmd->add_option("--pov-intervals", o->plan.pov_intervals,
                     "pov_analytic / pov_df3: media intervals [default: `airmass pov`'s rule, docs/povray.md]")
         ->check(int_in(1, 100000));
-    cmd->add_option("--pov-samples", o->pov_samples, "pov_analytic / pov_df3: media samples (method 3) [default: 3]")
+    cmd->add_option("--pov-samples", o->plan.pov_samples, "pov_analytic / pov_df3: media samples (method 3) [default: 3]")
         ->check(int_in(1, 100000));
     cmd->add_option("--pov-refine", o->pov_refine,
                     "pov_analytic / pov_df3: also render at twice the intervals (POV-Ray is deterministic: this "
@@ -1037,7 +904,7 @@ void add_compare_command(CLI::App& app) {
     cmd->add_option("--threads", o->threads, "Threads for native renders and Blender (0: all)")
         ->capture_default_str()
         ->check(int_in(0, 4096));
-    cmd->add_option("--timeout", o->timeout_s, "Seconds allowed per Blender or POV-Ray process")
+    cmd->add_option("--timeout", o->plan.timeout_s, "Seconds allowed per Blender or POV-Ray process")
         ->capture_default_str()
         ->check(number_in(1.0, 1e6));
     render_detail::add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
@@ -1049,7 +916,19 @@ void add_compare_command(CLI::App& app) {
                     "Write progress events as JSON lines to FILE, '-' (stderr) or fd:N (docs/compare.md)");
     cmd->add_flag("-q,--quiet", o->quiet, "No progress output");
     render_detail::add_camera_options(cmd, o->camera);
+    cmd->add_flag("--list-paths", o->list_paths,
+                  "Print the comparison paths (renderer, what it renders, native reference, modes, render count) "
+                  "and exit");
+    cmd->add_flag("--json", o->list_json, "With --list-paths: as JSON (the add-on's list of paths)");
     cmd->callback([o] {
+        if (o->list_paths) {
+            const std::string text =
+                o->list_json ? compare::path_list_json().dump(2) + "\n" : compare::path_list_text();
+            std::fwrite(text.data(), 1, text.size(), stdout);
+            std::fflush(stdout);
+            return;
+        }
+        if (o->list_json) throw CliError("compare: --json goes with --list-paths");
         if (o->output.empty()) throw CliError("compare: -o/--output DIR is required");
         run_compare(*o);
     });

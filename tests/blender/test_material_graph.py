@@ -221,6 +221,35 @@ class Ctx:
     pass
 
 
+def test_path_list(ctx):
+    """One list of paths: the add-on's (compare.path_list / blender_paths, asked of the CLI the
+    zip bundles) is `airmass compare --list-paths --json` of the CLI under test, its Paths
+    checkboxes are the Blender paths of that list, and without a CLI it says why."""
+    r = subprocess.run([ctx.cli, "compare", "--list-paths", "--json"], stdout=subprocess.PIPE, timeout=60,
+                       check=True)
+    listed = json.loads(r.stdout)["paths"]
+    want = [p["name"] for p in listed if p["renderer"] == "blender"]
+    cmp = importlib.import_module(ADDON + ".compare")
+    check(cmp.path_list() == listed, "the add-on's path list %r != the CLI's %r" % (cmp.path_list(), listed))
+    check(cmp.blender_paths() == want, "blender_paths %r, want %r" % (cmp.blender_paths(), want))
+    items = bpy.context.scene.airmass.bl_rna.properties["compare_paths"].enum_items
+    check(sorted(i.identifier.lower() for i in items) == sorted(want), "Paths checkboxes %r, want %r" %
+          ([i.identifier for i in items], want))
+    old = os.environ.get(cmp.CLI_ENV)
+    os.environ[cmp.CLI_ENV] = os.path.join(ctx.tmp, "no-such-airmass")
+    try:
+        try:
+            cmp.path_list()
+            check(False, "path_list without a CLI did not raise")
+        except cmp.NotAvailable as e:
+            check("not available" in str(e) and "no-such-airmass" in str(e), "NotAvailable says %r" % str(e))
+    finally:
+        if old is None:
+            os.environ.pop(cmp.CLI_ENV, None)
+        else:
+            os.environ[cmp.CLI_ENV] = old
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     ap = argparse.ArgumentParser(prog="test_material_graph.py")
@@ -239,6 +268,13 @@ def main():
         native = importlib.import_module(ADDON + ".native")
         presets = native.preset_names()
         check(len(presets) >= 5, "presets %r" % presets)
+        try:
+            test_path_list(ctx)
+            print("PASS material path list")
+        except Exception:  # noqa: BLE001
+            traceback.print_exc()
+            failures.append("path list")
+            print("FAIL material path list")
         for preset in presets:
             try:
                 test_preset(preset, ctx)
