@@ -366,7 +366,9 @@ TEST(SolarPositionCli, BadRowsAreNamedAndNothingIsPrinted) {
     out = run_command(std::string(AIRMASS_CLI) + " sun --latitude -95 --longitude 0 --time 2026-06-21T12:00Z 2>&1",
                       status);
     EXPECT_NE(status, 0);
-    EXPECT_EQ(out, "airmass: sun: latitude_deg = -95: must be in [-90, 90] degrees\n");
+    // Refused while the command line is read (plugin/cli/option_checks.cpp, the CLI sweep of
+    // issue 17): the option is named in front of the library's words for its field.
+    EXPECT_EQ(out, "--latitude: latitude_deg = -95: must be in [-90, 90] degrees\nRun with --help for more information.\n");
     out = run_command(std::string(AIRMASS_CLI) + " sun --latitude 0 --longitude 0 --time 2026-06-21T12:00Z "
                                                  "--pressure 900 2>&1",
                       status);
