@@ -315,8 +315,10 @@ std::pair<double, std::string> peak_density(const DensityProfile& p) {
 // and gave NaN radiance (fuzz_scene_json, --runs 20000). Both fields are named.
 void validate_extinction(const std::string& path, const Constituent& c, const std::vector<double>& wavelengths_nm) {
     const auto [density, density_field] = peak_density(c.profile);
-    for (const auto* which : {"scattering", "absorption"}) {
-        const SpectralCoefficient& k = std::string_view(which) == "scattering" ? c.scattering : c.absorption;
+    const std::pair<const char*, const SpectralCoefficient*> coefficients[] = {{"scattering", &c.scattering},
+                                                                               {"absorption", &c.absorption}};
+    for (const auto& [which, coefficient] : coefficients) {
+        const SpectralCoefficient& k = *coefficient;
         for (double nm : wavelengths_nm) {
             const double product = density * k.at(nm);
             if (!(product <= kMaxCoefficientPerM))
