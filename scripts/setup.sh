@@ -11,6 +11,8 @@ PACKAGES=(
   libglm-dev libopenimageio-dev openimageio-tools libopenvdb-dev libtbb-dev libblosc-dev
   libboost-math-dev libboost-iostreams-dev libcerf-dev libimath-dev libopenexr-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
+  # Google Highway's headers: the Chapman batch kernel's SIMD (runtime dispatch, header-only use)
+  libhwy-dev
   # reference data, plots and tests (Debian's python3, which Blender also sees)
   python3 python3-numpy python3-scipy python3-mpmath python3-matplotlib python3-pytest
   python3-openvdb python3-openimageio
