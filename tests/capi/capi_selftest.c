@@ -2,13 +2,16 @@
  * add-on ships: natively on Linux, under qemu-x86_64 -cpu Nehalem (a CPU without AVX), and
  * cross-built for Windows and run under wine64 (tests/capi/CMakeLists.txt, docs/portable.md).
  *
- *   capi_selftest [--pixels FILE] [--expect-simd NAME]
+ *   capi_selftest [--pixels FILE] [--expect-simd NAME] [--quick]
  *
  * Prints one line per check and finally "N passed, M failed"; exits nonzero on any failure.
  * --pixels writes the small test sky (64 x 32 RGBA floats, earth preset, sun at 20 degrees)
  * as text, one value per line with 9 significant digits, so that a Linux and a Windows run
  * can be compared value by value (tests/portable/run_windows_selftest.sh); --expect-simd checks
- * that airmass_build_info names the kernels NAME ("baseline" under a pre-AVX CPU). */
+ * that airmass_build_info names the kernels NAME ("baseline" under a pre-AVX CPU). --quick leaves
+ * out the sky-session checks (their own multiple-scattering tables, the slowest part): for the
+ * emulated old-CPU run, which is ≈ 75x slower than native and needs only the kernels and the
+ * pixels (tests/portable/run_old_cpu_selftest.sh). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,11 +52,13 @@ static int32_t cancel_at_once(void* user, double fraction) {
 int main(int argc, char** argv) {
     const char* pixels_path = NULL;
     const char* expect_simd = NULL;
+    int quick = 0;
     for (int i = 1; i < argc; ++i) {
         if (strcmp(argv[i], "--pixels") == 0 && i + 1 < argc) pixels_path = argv[++i];
         else if (strcmp(argv[i], "--expect-simd") == 0 && i + 1 < argc) expect_simd = argv[++i];
+        else if (strcmp(argv[i], "--quick") == 0) quick = 1;
         else {
-            fprintf(stderr, "usage: capi_selftest [--pixels FILE] [--expect-simd baseline|avx2]\n");
+            fprintf(stderr, "usage: capi_selftest [--pixels FILE] [--expect-simd baseline|avx2] [--quick]\n");
             return 2;
         }
     }
@@ -178,7 +183,7 @@ int main(int argc, char** argv) {
     }
     /* ---- sky sessions (ABI 6): one atmosphere, many suns; the pixels of a session render equal
      * airmass_render_sky's for the same sun (the one render path), bit for bit ---- */
-    {
+    if (!quick) {
         airmass_scene_spec other = spec;
         other.sun_elevation_deg = 55.0; /* the session's default sun differs from the view's */
         other.sun_rotation_deg = 140.0;

@@ -18,14 +18,4 @@ cd "$dir"
 status=${PIPESTATUS[0]}
 [ "$status" -eq 0 ] || { echo "FAIL: capi_selftest.exe exited with $status"; exit 1; }
 [ -f "$linux_pixels" ] || { echo "FAIL: no Linux pixels at $linux_pixels (the capi_selftest test writes them)"; exit 1; }
-/usr/bin/python3 - "$linux_pixels" "$win_pixels" <<'PY'
-import sys
-a = [float(x) for x in open(sys.argv[1])]
-b = [float(x) for x in open(sys.argv[2])]
-if len(a) != len(b) or not a:
-    print("FAIL: %d Linux values, %d Windows values" % (len(a), len(b))); sys.exit(1)
-worst = max(abs(x - y) / max(abs(x), 1e-30) for x, y in zip(a, b) if abs(x) > 1e-6)
-print("sky pixels, Windows vs Linux: %d values, largest relative difference %.3g" % (len(a), worst))
-if worst > 1e-5:
-    print("FAIL: the Windows sky differs from the Linux sky by more than 1e-5 relative"); sys.exit(1)
-PY
+/usr/bin/python3 "$(dirname "$0")/compare_pixels.py" "$linux_pixels" "$win_pixels" Windows
