@@ -368,7 +368,7 @@ TEST(SolarPositionCli, BadRowsAreNamedAndNothingIsPrinted) {
     EXPECT_NE(status, 0);
     // Refused while the command line is read (plugin/cli/option_checks.cpp, the CLI sweep of
     // issue 17): the option is named in front of the library's words for its field.
-    EXPECT_EQ(out, "--latitude: latitude_deg = -95: must be in [-90, 90] degrees\nRun with --help for more information.\n");
+    EXPECT_EQ(out, "airmass: sun: --latitude: latitude_deg = -95: must be in [-90, 90] degrees\n(`airmass sun --help` lists the options)\n");
     out = run_command(std::string(AIRMASS_CLI) + " sun --latitude 0 --longitude 0 --time 2026-06-21T12:00Z "
                                                  "--pressure 900 2>&1",
                       status);

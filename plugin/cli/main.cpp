@@ -1,11 +1,52 @@
 // airmass: the command-line front end of libairmass.
+#include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <string>
 
 #include "airmass/version.hpp"
 #include "commands.hpp"
+
+namespace {
+
+// The subcommands the command line reached ("sky", "report sky"; empty before any).
+std::string command_path(const CLI::App& app) {
+    std::string path;
+    for (const CLI::App* a = &app;;) {
+        const auto subs = a->get_subcommands();
+        if (subs.empty()) return path;
+        a = subs.front();
+        path += (path.empty() ? "" : " ") + a->get_name();
+    }
+}
+
+// CLI11's message, starting lower-case after "airmass: <command>: ", except where it misleads:
+// a word that is not a command, where one is expected, reads "A subcommand is required"; say
+// which word and list the commands of that level.
+std::string parse_message(const CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+    const CLI::App* level = &app;
+    int next = 1;  // argv index after the command words reached
+    while (!level->get_subcommands().empty()) {
+        level = level->get_subcommands().front();
+        while (next < argc && level->get_name() != argv[next]) ++next;
+        ++next;
+    }
+    const auto commands = level->get_subcommands([](const CLI::App*) { return true; });
+    if (!commands.empty() && next < argc && argv[next][0] != '-') {
+        std::string names;
+        for (const CLI::App* sub : commands) names += (names.empty() ? "" : ", ") + sub->get_name();
+        return std::string("unknown command '") + argv[next] + "' (commands: " + names + ")";
+    }
+    std::string what = e.what();
+    if (what.size() > 1 && std::isupper(static_cast<unsigned char>(what[0])) &&
+        std::islower(static_cast<unsigned char>(what[1])))
+        what[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(what[0])));
+    return what;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     // `airmass --version`: answered before any command is set up (nothing else is touched).
@@ -37,10 +78,22 @@ int main(int argc, char** argv) {
     airmass::cli::add_report_ms(*report);
     try {
         app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        // --help and --version: 0. A bad command line (an unknown option, a value out of its
-        // range or not a number: CLI11's own codes 100-127) exits 2 like every other refusal.
-        return app.exit(e) == 0 ? 0 : 2;
+        // A bad command line (an unknown option or command, a value out of its range or not a
+        // number) is refused like every other error: one line `airmass: <command>: <what>`,
+        // then where the options are listed; exit 2.
+        const std::string command = command_path(app);
+        const std::string where = command.empty() ? std::string("airmass") : "airmass " + command;
+        std::fprintf(stderr, "airmass: %s%s\n(`%s --help` lists the %s)\n",
+                     command.empty() ? "" : (command + ": ").c_str(), parse_message(app, e, argc, argv).c_str(),
+                     where.c_str(), command.empty() ? "commands" : "options");
+        return 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "airmass: %s\n", e.what());
         return 2;

@@ -89,6 +89,25 @@ def test_version_is_in_help(airmass_bin):
 
 # ---- the table cache ---------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("args, first_line, hint", [
+    (["sky", "--width", "-5"], "airmass: sky: --width: '-5': must be an integer in [4, 65536]", "airmass sky --help"),
+    (["sky", "--bogus"], "airmass: sky: the following argument was not expected: --bogus", "airmass sky --help"),
+    (["frob"], "airmass: unknown command 'frob' (commands: chapman, eval, sky, vdb, render, compare, sun, pov, "
+               "report)", "airmass --help"),
+    (["report", "frob"], "airmass: report: unknown command 'frob' (commands: chapman, sky, vdb, ms)",
+     "airmass report --help"),
+    (["report", "sky", "--bogus"], "airmass: report sky: the following argument was not expected: --bogus",
+     "airmass report sky --help"),
+])
+def test_bad_command_line_is_one_format(airmass_bin, args, first_line, hint):
+    """A bad command line reads like every other refusal (issue 17): `airmass: <command>: <what>`,
+    then where the options are listed; exit 2, nothing on stdout."""
+    r = subprocess.run([str(airmass_bin)] + args, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and r.stdout == "", (r.returncode, r.stdout, r.stderr)
+    lines = r.stderr.splitlines()
+    assert lines[0] == first_line and len(lines) == 2 and "`%s`" % hint in lines[1], r.stderr
+
+
 def _sky(airmass_bin, cache, out, *extra):
     env = dict(os.environ, AIRMASS_CACHE_DIR=str(cache))
     r = subprocess.run([airmass_bin, "sky", "--preset", "earth", "--basis", "rgb", "--width", "64",
