@@ -427,6 +427,30 @@ TEST(Extremes, ChapmanAirmassHugeX) {
     EXPECT_TRUE(std::isfinite(s.log_scale) && s.log_scale > 0.0) << s.log_scale;
 }
 
+// fuzz_csv (`airmass chapman --method exact`, row `1e308,45`): the quadrature's (x mu / t)² overflowed,
+// giving Ch = 0 from x ≈ 1e200 and a NaN (Boost's evaluation_error, an uncaught exception in the
+// fuzz target) at 1e308. Over the horizon Ch tends to 1 / cos chi, and horizontally to
+// sqrt(pi x / 2) (1 + 1 / (8x) + ...).
+TEST(Extremes, ChapmanExactHugeX) {
+    for (double chi : {0.0, 45.0, 80.0, 89.0}) {
+        const double expect = 1.0 / std::cos(chi * 3.14159265358979323846 / 180.0);
+        for (double x : {1e99, 1e101, 1e160, 1e200, 1e250, 1e300, 1e308, std::numeric_limits<double>::max()}) {
+            const double ch = chapman(ChapmanMethod::exact, x, ZenithAngle<double>::from_degrees(chi));
+            EXPECT_NEAR(ch, expect, 1e-9 * expect) << "x = " << x << ", chi = " << chi;
+        }
+    }
+    for (double x : {1e99, 1e101, 1e200, 1e308}) {
+        const double ch = chapman_horizontal_exact(x);
+        const double expect = std::sqrt(3.14159265358979323846 / 2.0) * std::sqrt(x);  // pi x overflows at 1e308
+        EXPECT_NEAR(ch / expect, 1.0, 1e-9) << "x = " << x;
+    }
+    for (double chi : {91.0, 135.0, 180.0}) {
+        const auto s = chapman_scaled(ChapmanMethod::exact, 1e308, ZenithAngle<double>::from_degrees(chi));
+        EXPECT_TRUE(std::isfinite(s.mantissa) && s.mantissa > 0.0) << chi << ": " << s.mantissa;
+        EXPECT_TRUE(std::isfinite(s.log_scale) && s.log_scale > 0.0) << chi << ": " << s.log_scale;
+    }
+}
+
 }  // namespace
 }  // namespace airmass
 

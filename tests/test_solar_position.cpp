@@ -209,6 +209,36 @@ TEST(SolarPosition, ErrorsNameFieldValueAndRange) {
     in.refraction = true;
     in.pressure_mbar = -1.0;
     EXPECT_EQ(error_of([&] { solar_position(in); }), "pressure_mbar = -1: must be in (0, 5000] mbar");
+    // fuzz_csv: eq. 42's 283 / (273 + T) is infinite at T = -273 (elevation inf) and flips sign below
+    // (elevations of thousands of degrees near it): temperatures start at -120 °C.
+    in.pressure_mbar = 1010.0;
+    for (const double t : {-273.0, -272.9, -273.1, -120.0000001})
+        EXPECT_EQ(error_of([&] {
+                      in.temperature_c = t;
+                      solar_position(in);
+                  }).rfind("temperature_c = ", 0),
+                  0u)
+            << t;
+    EXPECT_NE(error_of([&] { solar_position(in); }).find("must be in [-120, 1000) degrees Celsius"), std::string::npos);
+    // At the bound with the highest pressure, the sun at the horizon's edge of the correction
+    // (e0 = -0.83°, where it is largest): finite, a few degrees, the elevation within [-90, 90].
+    {
+        SolarPositionInput cold;
+        cold.refraction = true;
+        cold.pressure_mbar = 5000.0;
+        cold.temperature_c = -120.0;
+        for (int minute = 0; minute < 24 * 60; minute += 1) {
+            cold.latitude_deg = 45.0;
+            cold.longitude_deg = 10.0;
+            cold.time = add_seconds(parse_utc("2026-06-21T00:00:00Z"), 60.0 * minute);
+            const SolarPosition p = solar_position(cold);
+            ASSERT_TRUE(std::isfinite(p.elevation_deg)) << minute;
+            EXPECT_GE(p.elevation_deg, -90.0) << minute;
+            EXPECT_LE(p.elevation_deg, 90.0) << minute;
+            EXPECT_LE(p.refraction_deg, 6.0) << minute;
+            EXPECT_GE(p.refraction_deg, -1e-3) << minute;
+        }
+    }
     // The poles and the date line are valid places.
     in = SolarPositionInput{};
     in.time = parse_utc("2026-06-21T12:00:00Z");

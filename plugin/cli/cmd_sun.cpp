@@ -31,8 +31,6 @@ struct SunCommandOptions {
     SunCliOptions sun;
 };
 
-const std::vector<std::string> kInputColumns = {"latitude_deg", "longitude_deg", "utc"};
-
 std::string output_row(double lat, double lon, const UtcTime& t, const SolarPosition& p) {
     return format_place(lat) + "," + format_place(lon) + "," + format_utc(t) + "," + sun_angle_fields(p);
 }
@@ -76,25 +74,19 @@ void add_sun_command(CLI::App& app) {
             }
             std::istream& in = o->input.empty() ? std::cin : file;
             const std::string where = o->input.empty() ? "sun: " : "sun: " + o->input + ": ";
-            std::vector<TextRow> rows;
+            std::vector<SunRow> rows;
             try {
-                rows = read_text_rows(in, kInputColumns);
+                rows = read_sun_rows(in);
             } catch (const CliError& e) {
                 throw CliError(where + e.what());
             }
             if (in.bad()) throw CliError(where + "cannot read the input");
-            for (const TextRow& row : rows) {
-                const std::string at = where + "line " + std::to_string(row.line) + ": ";
-                double v[2];
-                for (int k = 0; k < 2; ++k)
-                    if (!parse_finite_number(row.fields[k], v[k]))
-                        throw CliError(at + kInputColumns[k] + " is not a finite number: '" + row.fields[k] + "'");
+            for (const SunRow& row : rows) {
                 try {
-                    const UtcTime t = parse_utc(row.fields[2], "utc");
-                    const auto input = solar_input(o->sun, v[0], v[1], t, "sun");
-                    lines.push_back(output_row(v[0], v[1], t, solar_position(input)));
+                    const auto input = solar_input(o->sun, row.latitude_deg, row.longitude_deg, row.time, "sun");
+                    lines.push_back(output_row(row.latitude_deg, row.longitude_deg, row.time, solar_position(input)));
                 } catch (const SolarPositionError& e) {
-                    throw CliError(at + e.what());
+                    throw CliError(where + "line " + std::to_string(row.line) + ": " + e.what());
                 }
             }
         }

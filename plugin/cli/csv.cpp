@@ -117,6 +117,24 @@ std::vector<NumericRow> read_chapman_rows(std::istream& in, bool single_precisio
 
 bool parse_finite_number(std::string_view text, double& out) { return parse_double(text, out) && std::isfinite(out); }
 
+std::vector<SunRow> read_sun_rows(std::istream& in) {
+    static const std::vector<std::string> names = {"latitude_deg", "longitude_deg", "utc"};
+    std::vector<SunRow> rows;
+    for (const TextRow& r : read_text_rows(in, names)) {
+        const std::string at = "line " + std::to_string(r.line) + ": ";
+        double v[2];
+        for (int k = 0; k < 2; ++k)
+            if (!parse_finite_number(r.fields[k], v[k]))
+                throw CliError(at + names[k] + " is not a finite number: '" + r.fields[k] + "'");
+        try {
+            rows.push_back(SunRow{r.line, v[0], v[1], parse_utc(r.fields[2], "utc")});
+        } catch (const SolarPositionError& e) {
+            throw CliError(at + e.what());
+        }
+    }
+    return rows;
+}
+
 std::vector<NumericRow> read_eval_rows(std::istream& in) {
     auto rows = read_numeric_rows(in, {"altitude_m", "view_zenith_deg", "sun_zenith_deg", "azimuth_deg"});
     for (const auto& r : rows) {

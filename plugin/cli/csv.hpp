@@ -8,6 +8,8 @@
 #include <string_view>
 #include <vector>
 
+#include "airmass/solar_position.hpp"
+
 namespace airmass::cli {
 
 struct NumericRow {
@@ -41,6 +43,16 @@ std::vector<NumericRow> read_chapman_rows(std::istream& in, bool single_precisio
 //   `airmass eval`: altitude_m in [0, 1e9], view_zenith_deg and sun_zenith_deg in [0, 180],
 //   azimuth_deg in [-360, 360].
 std::vector<NumericRow> read_eval_rows(std::istream& in);
+//   `airmass sun`: latitude_deg,longitude_deg,utc with latitude_deg and longitude_deg finite numbers
+//   and utc an ISO 8601 time with a zone (parse_utc). Errors read "line 2: longitude_deg is not a
+//   finite number: 'x'", "line 2: utc '...': hour 25 is not in [0, 23]". The ranges of the place
+//   (latitude in [-90, 90], ...) are solar_position()'s to check, with the command's options.
+struct SunRow {
+    std::size_t line;
+    double latitude_deg, longitude_deg;
+    UtcTime time;
+};
+std::vector<SunRow> read_sun_rows(std::istream& in);
 
 // A comma-separated list of finite numbers given on the command line ("680,550, 440"),
 // surrounding blanks allowed. `what` names the option in errors ("render: --box"); `kind`

@@ -22,7 +22,7 @@ void add_sun_options(CLI::App* cmd, SunCliOptions& o, bool full) {
     cmd->add_option("--pressure", o.pressure_mbar, "Air pressure for --refraction, mbar  [default 1010]")
         ->check(number_in(0.0, 5000.0, Ends::open_low));
     cmd->add_option("--temperature", o.temperature_c, "Air temperature for --refraction, °C  [default 10]")
-        ->check(number_in(-273.15, 1000.0, Ends::open));
+        ->check(number_in(-120.0, 1000.0, Ends::open_high));
 }
 
 SolarPositionInput solar_input(const SunCliOptions& o, double latitude_deg, double longitude_deg, const UtcTime& time,

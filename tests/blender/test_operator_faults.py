@@ -3,8 +3,9 @@
     blender -b --factory-startup --python-exit-code 1 \\
         --python tests/blender/test_operator_faults.py -- --zip build/addon/airmass_blender.zip [-k NAME]
 
-For Generate Sky, the analytic volume, the VDB volume and Compare with Native: a first run
-succeeds (Compare: a previous result folder is put in place), then the same operator fails —
+For Generate Sky, Bake Sky Animation, the analytic volume, the VDB volume and Compare with
+Native: a first run succeeds (Compare: a previous result folder is put in place), then the same
+operator fails —
 
   * invalid      a bad scene value (a scale height of 0), refused before any work;
   * readonly     the Output Folder read-only (a read-only tmpfs as root, mode 0555 else);
@@ -14,8 +15,9 @@ succeeds (Compare: a previous result folder is put in place), then the same oper
                  as a Blender API failure would raise —
 
 and afterwards the datablocks (counts, names, the World's image and its pixels, each
-atmosphere object's data and material), the files of the Output Folder (bytes) and the
-Compare report setting are what they were. Helpers come from run_addon_tests.py.
+atmosphere object's data and material, the actions, the Sun lamp's values and keyframes at
+every frame of the scene), the files of the Output Folder (bytes) and the Compare report
+setting are what they were. Helpers come from run_addon_tests.py.
 """
 
 import contextlib
@@ -55,6 +57,21 @@ def _can_mount():
 CAN_MOUNT = _can_mount()
 
 
+def lamp_state(scene):
+    """The Sun lamp the add-on uses (Sun Sync, Bake): its values at every frame of the scene
+    (evaluated, so its keyframes count), or None without one."""
+    obj = _mod("sun").find_lamp(scene)
+    if obj is None:
+        return None
+    current = scene.frame_current
+    out = [obj.name, obj.data.name]
+    for f in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(f)
+        out.append((f, obj.data.energy, tuple(obj.data.color), obj.data.angle, tuple(obj.matrix_world.col[2])))
+    scene.frame_set(current)
+    return out
+
+
 def state(scene, out):
     """What a failure must not change."""
     env = None
@@ -74,6 +91,9 @@ def state(scene, out):
         "world_pixels": tuple(rt._image_pixels(image).ravel()[:4096]) if image is not None else None,
         "files": files,
         "compare_report": scene.airmass.compare_report,
+        "actions": sorted(a.name for a in bpy.data.actions),
+        "lamp": lamp_state(scene),
+        "world": scene.world.name if scene.world is not None else None,
     }
 
 
@@ -189,6 +209,22 @@ def test_generate_sky_keeps_the_previous_sky():
     scene, out = rt.fresh_scene("fault_sky")
     scene.airmass.sky_width = 64
     each_fault(scene, out, lambda: bpy.ops.airmass.generate_sky(), "sky",
+               lambda: setattr(scene.airmass, "sky_width", 128), ("world", "wire_world"))
+
+
+@test
+def test_bake_keeps_the_previous_bake():
+    """Bake Sky Animation (two frames, the sun from place and time): the previous EXR sequence,
+    manifest, World and its sequence image, and the keyframed Sun lamp stay. Forced: the World's
+    wiring, after the frames were renamed into place and the lamp keyframed (all rolled back)."""
+    scene, out = rt.fresh_scene("fault_bake")
+    s = scene.airmass
+    s.bake_sun_source = "PLACE_TIME"
+    s.latitude, s.longitude, s.date, s.utc_hours = 48.859375, 2.34375, "2026-06-21", 6.0
+    s.minutes_per_frame = 30.0
+    scene.frame_start, scene.frame_end = 1, 2
+    s.sky_width = 64
+    each_fault(scene, out, lambda: bpy.ops.airmass.bake_sky_animation(), "bake",
                lambda: setattr(scene.airmass, "sky_width", 128), ("world", "wire_world"))
 
 

@@ -230,7 +230,7 @@ OPTIONS = [
     _n("sun", "--delta-ut1", -1, 1),
     _n("sun", "--site-elevation", -10000, 1e7),
     _n("sun_refraction", "--pressure", 0, 5000, "(]"),
-    _n("sun_refraction", "--temperature", -273.15, 1000, "()"),
+    _n("sun_refraction", "--temperature", -120, 1000, "[)"),
     # ---- compare (stopped before any render) -----------------------------------------------------
     _i("compare", "--width", 1, 65536),
     _i("compare", "--height", 1, 65536),

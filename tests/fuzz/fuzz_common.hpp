@@ -23,7 +23,11 @@ inline void require(bool ok, const char* what) {
 
 template <class T>
 void require_finite_non_negative(std::span<const T> values, const char* what) {
-    for (const T v : values) require(std::isfinite(v) && v >= T(0), what);
+    for (std::size_t i = 0; i < values.size(); ++i)
+        if (!(std::isfinite(values[i]) && values[i] >= T(0))) {
+            std::fprintf(stderr, "%s[%zu] of %zu = %.9g\n", what, i, values.size(), double(values[i]));
+            require(false, what);
+        }
 }
 
 }  // namespace airmass::fuzz

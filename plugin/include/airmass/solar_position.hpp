@@ -74,7 +74,7 @@ struct SolarPositionInput {
     std::optional<double> delta_t_s;
     double delta_ut1_s = 0.0;  // UT1 − UTC, seconds, |value| <= 1 (IERS Bulletin A); 0 by default
     // Atmospheric refraction (SPA eq. 42): off by default. Pressure in mbar (hPa), (0, 5000];
-    // temperature in °C, (−273.15, 1000).
+    // temperature in °C, [−120, 1000) (eq. 42's 283 / (273 + T) diverges at −273 °C).
     bool refraction = false;
     double pressure_mbar = 1010.0;
     double temperature_c = 10.0;

@@ -33,10 +33,20 @@ double integrate(auto f, double a, double b) {
 double chapman_upper_exact(double x, double mu) {
     // Two-argument form: Boost passes the distance to the nearer endpoint as well and
     // then lets abscissae round onto an endpoint; t = 0 takes the integrand's limit.
-    const auto integrand = [x, mu](double t, double /*distance_to_endpoint*/) {
-        if (t <= 0.0) return mu > 0.0 ? 0.0 : std::sqrt(2.0 * x);
-        const double a = x * mu / t;
+    // Above x = 1e100 numerator and root are divided by x: (x mu / t)² overflowed from x ≈ 1e154 on
+    // and gave Ch = 0 (ln Ch = -inf) from x ≈ 1e200, a NaN and Boost's evaluation_error at 1e308
+    // (fuzz_csv). Below, the form (and every bit of the tables built from it) is unchanged.
+    const bool scaled = x > 1e100;
+    const auto integrand = [x, mu, scaled](double t, double /*distance_to_endpoint*/) {
+        if (t <= 0.0) return mu > 0.0 ? 0.0 : std::sqrt(2.0) * std::sqrt(x);
         const double t2 = t * t;
+        if (scaled) {
+            const double a = mu / t;
+            const double tx = t / x;
+            const double den = std::sqrt(a * a + 2.0 / x + tx * tx);  // > 0: 2 / x is for x <= 1.8e308
+            return 2.0 * (1.0 + t2 / x) / den * std::exp(-t2);
+        }
+        const double a = x * mu / t;
         const double den = std::sqrt(a * a + 2.0 * x + t2);  // 0 only when x = 0 and t² underflows
         return den > 0.0 ? 2.0 * (x + t2) / den * std::exp(-t2) : 0.0;
     };

@@ -472,8 +472,12 @@ void validate(const SolarPositionInput& in) {
     if (in.refraction) {
         require(std::isfinite(in.pressure_mbar) && in.pressure_mbar > 0.0 && in.pressure_mbar <= 5000.0,
                 "pressure_mbar", in.pressure_mbar, "in (0, 5000] mbar");
-        require(std::isfinite(in.temperature_c) && in.temperature_c > -273.15 && in.temperature_c < 1000.0,
-                "temperature_c", in.temperature_c, "in (-273.15, 1000) degrees Celsius");
+        // Not down to -273.15: eq. 42's 283 / (273 + T) is infinite at T = -273 and flips sign
+        // below; near it the "refraction" was thousands of degrees (fuzz_csv). From -120 °C (Earth's
+        // coldest air is about -89 °C) with the highest pressure, 5000 mbar, the correction stays
+        // below 6° at the horizon and the elevation within [-90, 90].
+        require(std::isfinite(in.temperature_c) && in.temperature_c >= -120.0 && in.temperature_c < 1000.0,
+                "temperature_c", in.temperature_c, "in [-120, 1000) degrees Celsius");
     }
 }
 
