@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -422,6 +423,41 @@ TEST(VdbBadInput, VoxelSizeMustBePositive) {
         VdbOptions o = small_box();
         o.voxel_size = v;
         expect_error_and_no_file(scene, o, "--voxel-size");
+    }
+}
+
+// Fix 22 (docs/reliability.md): a voxel many scale heights across extrapolates the density
+// below the ground past a float grid's range. The earth preset's haze (H = 1.2 km): a voxel of
+// 50 km extrapolates it by exp(sqrt(3) 50 / 1.2) = 2e31 (kept), one of 70 km by 7e43 (refused,
+// naming the option, the constituent and the float range); the automatic voxel size of a tiny
+// dense limit (the fuzz input, 311 km) is refused the same way.
+TEST(VdbBadInput, VoxelTooCoarseForAFloatGrid) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o;
+    o.region = VdbRegion::planet;
+    o.voxel_size = 50.0;
+    const VdbLayout kept = resolve_vdb_layout(scene, o);
+    for (const auto& c : kept.constituents)
+        EXPECT_LE(c.source->profile.at(c.band_min_m), double(std::numeric_limits<float>::max())) << c.name;
+    o.voxel_size = 70.0;
+    try {
+        resolve_vdb_layout(scene, o);
+        ADD_FAILURE() << "a 70 km voxel was accepted";
+    } catch (const VdbError& e) {
+        const std::string what = e.what();
+        for (const char* part : {"--voxel-size = 70 km", "too coarse for constituent 'mie'", "3.4e38"})
+            EXPECT_NE(what.find(part), std::string::npos) << part << " not in: " << what;
+    }
+    o.voxel_size.reset();
+    o.max_dense_mb = 0.27;
+    o.tolerance = 0.0100942;
+    try {
+        resolve_vdb_layout(scene, o);
+        ADD_FAILURE() << "the automatic voxel size of a 0.27 MB dense limit was accepted";
+    } catch (const VdbError& e) {
+        const std::string what = e.what();
+        for (const char* part : {"(automatic)", "--max-dense-mb"})
+            EXPECT_NE(what.find(part), std::string::npos) << part << " not in: " << what;
     }
 }
 

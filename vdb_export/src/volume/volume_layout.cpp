@@ -375,7 +375,18 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
         const auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         c.band_min_m = lo;
         c.band_max_m = hi;
-        if (lo <= hi) layout.constituents.push_back(c);
+        if (!(lo <= hi)) continue;
+        // The grids hold floats. Below the ground the profile is extrapolated over the margin
+        // (trilinear interpolation at the surface reads it); a voxel many scale heights across
+        // extrapolates it past the float range, which would store +inf: refuse, naming why.
+        const double peak = profile_max(c.source->profile, lo, hi);
+        if (!(peak <= double(std::numeric_limits<float>::max())))
+            throw VdbError("--voxel-size = " + fmt(v) + " " + unit + (layout.voxel_size_automatic ? " (automatic)" : "") +
+                           " is too coarse for constituent '" + c.name + "': its density extrapolated one voxel diagonal (" +
+                           fmt(ground_margin_m / r.L) + " " + unit + ") below the ground reaches " + fmt(peak) +
+                           ", beyond a float grid's range (3.4e38); use a smaller --voxel-size" +
+                           (layout.voxel_size_automatic ? " or larger --max-dense-mb / --max-memory-mb" : ""));
+        layout.constituents.push_back(c);
     }
     if (layout.constituents.empty())
         throw VdbError("every constituent is below the activity threshold everywhere (--tolerance = " +
