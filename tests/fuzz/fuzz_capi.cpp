@@ -229,18 +229,19 @@ void fill_tame(FuzzedDataProvider& in, Call& c) {
     vdb.unit = kUnits[in.ConsumeIntegralInRange<int>(0, 1)];
     vdb.origin_center = in.ConsumeBool();
     const double unit_m = vdb.unit[0] == 'k' ? 1000.0 : 1.0;
-    double smallest = std::numeric_limits<double>::infinity();
+    double largest = 0.0;
     for (int k = 0; k < 3; ++k) {
         const double half = in_range(in, 100.0, 3e4) / unit_m;
         const double centre = (k == 2 ? in_range(in, 0.0, 2e4) : in_range(in, -1e4, 1e4)) / unit_m;
         vdb.box[k] = centre - half;
         vdb.box[k + 3] = centre + half;
-        smallest = std::min(smallest, 2 * half);
+        largest = std::max(largest, 2 * half);
     }
-    // An explicit voxel size for a box only, 2 to 32 voxels across its smallest side (a planet at
-    // a voxel size of kilometres is a legitimate job of minutes, a libFuzzer timeout); else the
-    // automatic size, which follows the dense limit.
-    vdb.voxel_size = vdb.region[0] == 'b' && in.ConsumeBool() ? smallest / in.ConsumeIntegralInRange<int>(2, 32) : kNaN;
+    // An explicit voxel size for a box only, 2 to 32 voxels across its largest side, so at most
+    // 32^3 voxels (a planet at a voxel size of kilometres, or 2 voxels across a box's thin side
+    // and thousands across its long one, is a legitimate job of minutes, a libFuzzer timeout);
+    // else the automatic size, which follows the dense limit.
+    vdb.voxel_size = vdb.region[0] == 'b' && in.ConsumeBool() ? largest / in.ConsumeIntegralInRange<int>(2, 32) : kNaN;
     vdb.tolerance = keep_or(in, 1e-6, 0.1);
     vdb.max_dense_mb = in_range(in, 0.05, 0.5);  // small: the sampling pass stays short
     vdb.tile_voxels = in.ConsumeBool() ? 0 : in.ConsumeIntegralInRange<int32_t>(-1, 64);
