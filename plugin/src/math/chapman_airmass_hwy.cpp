@@ -29,6 +29,7 @@
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "math/chapman_airmass_hwy.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
 #include <cmath>
@@ -83,7 +84,7 @@ HWY_INLINE V cell(V s, int n, V& local) {
 // table read → Horner) is ~150 cycles of latency, longer than the reorder window of a Zen 1
 // core; in passes, every block of a pass is independent of the others, so their latencies
 // overlap and the table reads (random, mostly L1 misses) are in flight together.
-constexpr size_t kBlocks = 8;
+constexpr size_t kBlocks = 16;
 
 struct Chunk {
     HWY_ALIGN double t[kBlocks * 4], u[kBlocks * 4], t0[kBlocks * 4];
@@ -109,7 +110,15 @@ HWY_INLINE V read_t(const double* c, const double* t) {
     const DD dd;
     const V tv = hn::Set(dd, *t);
     const V g0 = hn::LoadU(dd, c), g1 = hn::LoadU(dd, c + 4), g2 = hn::LoadU(dd, c + 8), g3 = hn::LoadU(dd, c + 12);
-    return hn::MulAdd(hn::MulAdd(g3, tv, g2), hn::Mul(tv, tv), hn::MulAdd(g1, tv, g0));
+    return hn::MulAdd(hn::MulAdd(hn::MulAdd(g3, tv, g2), tv, g1), tv, g0);  // Horner: throughput, not latency
+}
+
+// [lo.upper, hi.upper] without vperm2f128, which Zen 1 splits into 8 µops: two extracts and an
+// insert.
+HWY_INLINE V upper_upper(V hi, V lo) {
+    const DD dd;
+    const hn::Half<DD> dh;
+    return hn::Combine(dd, hn::UpperHalf(dh, hi), hn::UpperHalf(dh, lo));
 }
 
 // The bicubic at four lanes' cells: per lane the t step, then a 4×4 transpose (lane k of C_b is
@@ -121,16 +130,20 @@ HWY_INLINE V read(const double* coefficients, const int32_t* o, const double* t,
     const V t0 = hn::InterleaveLower(dd, col0, col1), t1 = hn::InterleaveUpper(dd, col0, col1);
     const V t2 = hn::InterleaveLower(dd, col2, col3), t3 = hn::InterleaveUpper(dd, col2, col3);
     const V C0 = hn::ConcatLowerLower(dd, t2, t0), C1 = hn::ConcatLowerLower(dd, t3, t1);
-    const V C2 = hn::ConcatUpperUpper(dd, t2, t0), C3 = hn::ConcatUpperUpper(dd, t3, t1);
-    return hn::MulAdd(hn::MulAdd(C3, u, C2), hn::Mul(u, u), hn::MulAdd(C1, u, C0));
+    const V C2 = upper_upper(t2, t0), C3 = upper_upper(t3, t1);
+    return hn::MulAdd(hn::MulAdd(hn::MulAdd(C3, u, C2), u, C1), u, C0);
 }
 
-// ... and the v = 0 column (u = 0): the t step's first lanes.
+// ... and the v = 0 column (u = 0), c[0] + c[4] t + c[8] t² + c[12] t³, per lane in scalars (a
+// quarter of the cell).
 HWY_INLINE V read_column0(const double* coefficients, const int32_t* o, const double* t) {
-    const DD dd;
-    const V col0 = read_t(coefficients + o[0], t), col1 = read_t(coefficients + o[1], t + 1);
-    const V col2 = read_t(coefficients + o[2], t + 2), col3 = read_t(coefficients + o[3], t + 3);
-    return hn::ConcatLowerLower(dd, hn::InterleaveLower(dd, col2, col3), hn::InterleaveLower(dd, col0, col1));
+    HWY_ALIGN double h[4];
+    for (int k = 0; k < 4; ++k) {
+        const double* c = coefficients + o[k];
+        const double tk = t[k];
+        h[k] = (c[0] + c[4] * tk) + (c[8] + c[12] * tk) * (tk * tk);
+    }
+    return hn::Load(DD(), h);
 }
 
 // Stage a of block j: Ch's cells and factors for four lanes (formulas: chapman_airmass_batch.inc).
@@ -186,6 +199,11 @@ HWY_INLINE void stage_a(const AirmassTable& table, V x, V mu, V s, Chunk& ch, si
     hn::Store(t, dd, ch.t + l);
     hn::Store(u, dd, ch.u + l);
     offsets(hn::MulAdd(iw, row, hn::Mul(iv, sixteen)), ch.off + l);
+    // The cells' two cache lines each, fetched while the rest of the chunk's stage a runs.
+    for (size_t k = 0; k < 4; ++k) {
+        hwy::Prefetch(table.coefficients + ch.off[l + k]);
+        hwy::Prefetch(table.coefficients + ch.off[l + k] + 8);
+    }
     hn::Store(hn::Mul(hn::Mul(c, ab), inv_D), dd, ch.factor + l);
     uint8_t bits[8] = {};
     hn::StoreMaskBits(dd, slow, bits);
