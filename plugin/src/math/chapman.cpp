@@ -108,14 +108,12 @@ void check_lengths(size_t n, size_t n_cos, size_t n_sin) {
         throw std::invalid_argument("chapman batch: x, cos_chi and sin_chi must have the same length");
 }
 
-// True when the `airmass` method's batch runs on the AVX2 kernel (chapman_airmass_hwy.cpp).
-bool airmass_avx2([[maybe_unused]] ChapmanMethod method) {
 #if AIRMASS_SIMD_DISPATCH
+// True when the `airmass` method's batch runs on the AVX2 kernel (chapman_airmass_hwy.cpp).
+bool airmass_avx2(ChapmanMethod method) {
     return method == ChapmanMethod::airmass && simd_target() == SimdTarget::avx2_fma;
-#else
-    return false;
-#endif
 }
+#endif
 
 template <class T, class X, class Out>
 void batch_dispatch(ChapmanMethod method, size_t n, X x, std::span<const T> c, std::span<const T> s, Out out) {
