@@ -16,7 +16,7 @@ command -v x86_64-w64-mingw32-g++-posix >/dev/null || {
 # /usr/include, which would put glibc's headers in front of mingw's).
 deps="$win/header-deps"
 mkdir -p "$deps"
-for d in boost glm nlohmann toml++; do ln -sfn "/usr/include/$d" "$deps/$d"; done
+for d in boost glm nlohmann toml++ hwy; do ln -sfn "/usr/include/$d" "$deps/$d"; done
 cmake -S "$root" -B "$win" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_TOOLCHAIN_FILE="$root/cmake/mingw-w64.cmake" -DAIRMASS_CORE_ONLY=ON \
   -DAIRMASS_HEADER_DEPS_DIR="$deps" -DAIRMASS_CHAPMAN_TABLE_CPP="$table" \

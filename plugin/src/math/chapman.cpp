@@ -11,25 +11,20 @@
 #include <stdexcept>
 
 #include "chapman_airmass.hpp"
+#include "chapman_airmass_hwy.hpp"
 #include "chapman_internal.hpp"
 #include "chapman_published.hpp"
 
 namespace airmass {
 
-// The `airmass` batch kernel, once for baseline x86-64 and once for AVX2/FMA (airmass/simd.hpp).
+// The `airmass` batch kernel: for baseline x86-64 (and every other platform) on GCC/Clang vectors
+// (chapman_airmass_batch.inc); for AVX2/FMA written with Google Highway (chapman_airmass_hwy.cpp),
+// called from chapman_scaled_batch / chapman_rescaled_batch when simd_target() is avx2_fma.
 #if AIRMASS_CHAPMAN_VECTORS
 namespace airmass_v4 {
 namespace baseline {
 #include "chapman_airmass_batch.inc"
 }  // namespace baseline
-#if AIRMASS_SIMD_DISPATCH
-#pragma GCC push_options
-#pragma GCC target("avx2,fma")
-namespace avx2_fma {
-#include "chapman_airmass_batch.inc"
-}  // namespace avx2_fma
-#pragma GCC pop_options
-#endif
 }  // namespace airmass_v4
 #endif
 
@@ -72,8 +67,8 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 // `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
 // The loop is compiled twice: for baseline x86-64 and, with everything it calls inlined
 // (flatten), for AVX2/FMA; simd_target() picks one at run time (airmass/simd.hpp).
-// The `airmass` method has its own kernel, four lanes on vectors (chapman_airmass_batch.inc),
-// compiled twice above.
+// The `airmass` method has its own kernels: four lanes on vectors (chapman_airmass_batch.inc)
+// for baseline, Highway's AVX2 (chapman_airmass_hwy.cpp) called directly by the batch functions.
 
 template <class T, ChapmanMethod M, class X, class Out>
 [[gnu::always_inline]] inline void batch_body(X& x_of, std::span<const T> c, std::span<const T> s, Out& out) {
@@ -93,28 +88,36 @@ template <class T, ChapmanMethod M, class X, class Out>
 #if AIRMASS_SIMD_DISPATCH
 template <class T, ChapmanMethod M, class X, class Out>
 AIRMASS_TARGET_AVX2_FMA void batch_loop_avx2_fma(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
-    if constexpr (M == ChapmanMethod::airmass) {
-        airmass_v4::avx2_fma::airmass_batch<T>(detail::airmass_table(), x_of, c, s, out);
-    } else {
-        batch_body<T, M>(x_of, c, s, out);
-    }
+    batch_body<T, M>(x_of, c, s, out);
 }
 #endif
 
 template <class T, ChapmanMethod M, class X, class Out>
 void batch_loop(X x_of, std::span<const T> c, std::span<const T> s, Out out) {
 #if AIRMASS_SIMD_DISPATCH
-    // The exact quadrature is a reference, not a kernel: one copy is enough.
-    if constexpr (M != ChapmanMethod::exact)
+    // The exact quadrature is a reference, not a kernel: one copy is enough. The `airmass` method's
+    // AVX2 kernel is called before this (airmass_avx2).
+    if constexpr (M != ChapmanMethod::exact && M != ChapmanMethod::airmass)
         if (simd_target() == SimdTarget::avx2_fma) return batch_loop_avx2_fma<T, M>(x_of, c, s, out);
 #endif
     batch_body<T, M>(x_of, c, s, out);
 }
 
+void check_lengths(size_t n, size_t n_cos, size_t n_sin) {
+    if (n_cos != n || n_sin != n)
+        throw std::invalid_argument("chapman batch: x, cos_chi and sin_chi must have the same length");
+}
+
+#if AIRMASS_SIMD_DISPATCH
+// True when the `airmass` method's batch runs on the AVX2 kernel (chapman_airmass_hwy.cpp).
+bool airmass_avx2(ChapmanMethod method) {
+    return method == ChapmanMethod::airmass && simd_target() == SimdTarget::avx2_fma;
+}
+#endif
+
 template <class T, class X, class Out>
 void batch_dispatch(ChapmanMethod method, size_t n, X x, std::span<const T> c, std::span<const T> s, Out out) {
-    if (c.size() != n || s.size() != n)
-        throw std::invalid_argument("chapman batch: x, cos_chi and sin_chi must have the same length");
+    check_lengths(n, c.size(), s.size());
     switch (method) {
         case ChapmanMethod::exact: return batch_loop<T, ChapmanMethod::exact>(x, c, s, out);
         case ChapmanMethod::airmass: return batch_loop<T, ChapmanMethod::airmass>(x, c, s, out);
@@ -173,6 +176,13 @@ void chapman_scaled_batch(ChapmanMethod method, std::span<const T> x, std::span<
                           std::span<const T> sin_chi, std::span<T> mantissa, std::span<T> log_scale) {
     if (mantissa.size() != x.size() || log_scale.size() != x.size())
         throw std::invalid_argument("chapman batch: output spans must have the length of x");
+#if AIRMASS_SIMD_DISPATCH
+    if (airmass_avx2(method)) {
+        check_lengths(x.size(), cos_chi.size(), sin_chi.size());
+        return detail::airmass_scaled_batch_avx2<T>(detail::airmass_table(), x.data(), cos_chi.data(), sin_chi.data(),
+                                                    x.size(), mantissa.data(), log_scale.data());
+    }
+#endif
     batch_dispatch<T>(method, x.size(), [x](size_t i) { return x[i]; }, cos_chi, sin_chi, [&](size_t i, ScaledChapman<T> r) {
         mantissa[i] = r.mantissa;
         log_scale[i] = r.log_scale;
@@ -183,6 +193,13 @@ template <class T>
 void chapman_rescaled_batch(ChapmanMethod method, T X, std::span<const T> h, std::span<const T> cos_chi,
                             std::span<const T> sin_chi, std::span<T> out) {
     if (out.size() != h.size()) throw std::invalid_argument("chapman batch: output span must have the length of h");
+#if AIRMASS_SIMD_DISPATCH
+    if (airmass_avx2(method)) {
+        check_lengths(h.size(), cos_chi.size(), sin_chi.size());
+        return detail::airmass_rescaled_batch_avx2<T>(detail::airmass_table(), X, h.data(), cos_chi.data(),
+                                                      sin_chi.data(), h.size(), out.data());
+    }
+#endif
     batch_dispatch<T>(method, h.size(), [X, h](size_t i) { return X + h[i]; }, cos_chi, sin_chi,
                       [&](size_t i, ScaledChapman<T> r) { out[i] = r.mantissa * std::exp(r.log_scale - h[i]); });
 }

@@ -167,8 +167,8 @@ inline double airmass_exp_neg(double d) {
 
 // The bicubic at (t, u) in the cell whose coefficients start at `cell`. Horner in t on the four
 // groups of u-coefficients at once (one 4-double vector each: four loads, three vector FMAs),
-// then Horner in u on the four lanes. GCC and Clang vector extensions: AVX registers in the
-// avx2+fma copy, pairs of SSE2 registers in the baseline one.
+// then Horner in u on the four lanes. GCC and Clang vector extensions: pairs of SSE2 registers in
+// baseline code (the scalar path and the baseline batch kernel).
 #if defined(__GNUC__) || defined(__clang__)
 #define AIRMASS_CHAPMAN_VECTORS 1
 typedef double AirmassV4 __attribute__((vector_size(32)));
