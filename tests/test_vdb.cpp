@@ -647,7 +647,7 @@ VdbOptions layer_options(LayerCase c) {
     switch (c) {
         case LayerCase::planet:
             o.region = VdbRegion::planet;
-            o.voxel_size = 100.0;
+            o.voxel_size = 50.0;  // 100 km held +inf below the ground (fix 22: refused now)
             o.tile_voxels = -1;
             break;
         case LayerCase::view:
@@ -657,8 +657,8 @@ VdbOptions layer_options(LayerCase c) {
         case LayerCase::box: o = small_box(); break;
         case LayerCase::tiled:
             o.region = VdbRegion::planet;
-            o.voxel_size = 100.0;
-            o.tile_voxels = 32;
+            o.voxel_size = 50.0;  // 100 km held +inf below the ground (fix 22: refused now)
+            o.tile_voxels = 64;   // 32 at 100 km (32 at 50 km: 314 tiles > --max-tiles)
             break;
     }
     return o;

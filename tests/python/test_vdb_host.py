@@ -43,8 +43,8 @@ CASES = {
             "host": {"preset": "earth", "options": {"region": "box", "box": list(BOX), "voxel_size": 2.0}}},
     "view": {"cli": ["{scene}", "--region", "view", "--voxel-size", "1.5"],
              "host": {"toml": VIEW_TOML, "source_name": "{scene}", "options": {"region": "view", "voxel_size": 1.5}}},
-    "tiled": {"cli": ["--preset", "earth", "--region", "planet", "--voxel-size", "100", "--tile-voxels", "32"],
-              "host": {"preset": "earth", "options": {"region": "planet", "voxel_size": 100.0, "tile_voxels": 32}}},
+    "tiled": {"cli": ["--preset", "earth", "--region", "planet", "--voxel-size", "50", "--tile-voxels", "64"],
+              "host": {"preset": "earth", "options": {"region": "planet", "voxel_size": 50.0, "tile_voxels": 64}}},
 }
 
 
