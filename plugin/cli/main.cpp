@@ -11,33 +11,34 @@
 
 namespace {
 
-// The subcommands the command line reached ("sky", "report sky"; empty before any).
-std::string command_path(const CLI::App& app) {
+// Where the command line got to: the subcommands it reached ("sky", "report sky"; empty before
+// any), the deepest of them (or the app) and the argv index after their words.
+struct Reached {
     std::string path;
-    for (const CLI::App* a = &app;;) {
-        const auto subs = a->get_subcommands();
-        if (subs.empty()) return path;
-        a = subs.front();
-        path += (path.empty() ? "" : " ") + a->get_name();
+    const CLI::App* level;
+    int next;
+};
+
+Reached reached(const CLI::App& app, int argc, char** argv) {
+    Reached r{"", &app, 1};
+    while (!r.level->get_subcommands().empty()) {
+        r.level = r.level->get_subcommands().front();
+        r.path += (r.path.empty() ? "" : " ") + r.level->get_name();
+        while (r.next < argc && r.level->get_name() != argv[r.next]) ++r.next;
+        ++r.next;
     }
+    return r;
 }
 
 // CLI11's message, starting lower-case after "airmass: <command>: ", except where it misleads:
 // a word that is not a command, where one is expected, reads "A subcommand is required"; say
 // which word and list the commands of that level.
-std::string parse_message(const CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
-    const CLI::App* level = &app;
-    int next = 1;  // argv index after the command words reached
-    while (!level->get_subcommands().empty()) {
-        level = level->get_subcommands().front();
-        while (next < argc && level->get_name() != argv[next]) ++next;
-        ++next;
-    }
-    const auto commands = level->get_subcommands([](const CLI::App*) { return true; });
-    if (!commands.empty() && next < argc && argv[next][0] != '-') {
+std::string parse_message(const Reached& r, const CLI::ParseError& e, char** argv, int argc) {
+    const auto commands = r.level->get_subcommands([](const CLI::App*) { return true; });
+    if (!commands.empty() && r.next < argc && argv[r.next][0] != '-') {
         std::string names;
         for (const CLI::App* sub : commands) names += (names.empty() ? "" : ", ") + sub->get_name();
-        return std::string("unknown command '") + argv[next] + "' (commands: " + names + ")";
+        return std::string("unknown command '") + argv[r.next] + "' (commands: " + names + ")";
     }
     std::string what = e.what();
     if (what.size() > 1 && std::isupper(static_cast<unsigned char>(what[0])) &&
@@ -88,11 +89,11 @@ int main(int argc, char** argv) {
         // A bad command line (an unknown option or command, a value out of its range or not a
         // number) is refused like every other error: one line `airmass: <command>: <what>`,
         // then where the options are listed; exit 2.
-        const std::string command = command_path(app);
-        const std::string where = command.empty() ? std::string("airmass") : "airmass " + command;
+        const Reached r = reached(app, argc, argv);
+        const std::string where = r.path.empty() ? std::string("airmass") : "airmass " + r.path;
         std::fprintf(stderr, "airmass: %s%s\n(`%s --help` lists the %s)\n",
-                     command.empty() ? "" : (command + ": ").c_str(), parse_message(app, e, argc, argv).c_str(),
-                     where.c_str(), command.empty() ? "commands" : "options");
+                     r.path.empty() ? "" : (r.path + ": ").c_str(), parse_message(r, e, argv, argc).c_str(),
+                     where.c_str(), r.path.empty() ? "commands" : "options");
         return 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "airmass: %s\n", e.what());
