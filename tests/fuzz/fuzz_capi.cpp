@@ -392,7 +392,24 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (json) airmass_string_free(json), json = nullptr;
 
     if (!valid || (wild && !in.ConsumeBool())) return 0;
-    if (status_ok(airmass_vdb_plan(&spec, &vdb, nullptr, nullptr, &json, msg, message_size))) {
+    // A volume outside the tame sizes (a raw dense limit above 0.5 MB, or a raw voxel size giving
+    // more than 32^3 voxels) is a legitimate job of minutes under this build: the plan runs with a
+    // progress callback that cancels at its first report, so it must end AIRMASS_CANCELLED (or
+    // finish first), never time out. The CI's fuzz run found it (max_dense_mb raw, 20 s, 2026-12-02).
+    double box_voxels = 1.0;
+    for (int k = 0; k < 3; ++k) box_voxels *= (vdb.box[k + 3] - vdb.box[k]) / vdb.voxel_size;
+    const bool large = !(vdb.max_dense_mb <= 0.5) || (std::isfinite(vdb.voxel_size) && !(box_voxels <= 32768.0));
+    airmass_job cancel_first{};
+    cancel_first.struct_size = sizeof cancel_first;
+    cancel_first.progress = [](void*, double) -> int32_t { return 1; };
+    const int32_t plan_status =
+        airmass_vdb_plan(&spec, &vdb, nullptr, large ? &cancel_first : nullptr, &json, msg, message_size);
+    if (large && plan_status == AIRMASS_CANCELLED) {
+        require(json == nullptr, "a cancelled plan returned JSON");
+        if (msg && message_size >= 2) require(message[0] != '\0', "a cancelled plan without a message");
+        return 0;
+    }
+    if (status_ok(plan_status)) {
         const auto plan = nlohmann::json::parse(json);
         airmass_string_free(json);
         json = nullptr;
