@@ -16,7 +16,8 @@
 //
 // This file runs a plan (compare_plan.hpp: the path table, the native renders and steps each
 // path needs, the job schema, the checks of the options): options → plan → run → report.
-// What it does, in order (every file lands in DIR):
+// What it does, in order (every file lands in the staging folder beside DIR, swapped in whole
+// as DIR once the run completes: OutputFolder below; DIR keeps its previous set until then):
 //   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
 //      functions), native_hg_spectral.exr (Henyey–Greenstein phases), native_matched.exr
 //      (what Blender renders from the volume export: HG + the renderer RGB model) and, for
@@ -30,7 +31,7 @@
 //   4. compare/report.py: report.md, PNGs and summary.json, run by default in the same Blender
 //      (`blender -b --factory-startup --python report.py -- DIR`: its bundled Python with numpy,
 //      images through bpy), or with --python EXE (numpy and OpenImageIO; matplotlib optional).
-//      Stale report.md / summary.json are removed first, so a failed report leaves none.
+//      A failed report fails the run: DIR keeps its previous set.
 // A path that cannot run (an export refused, Blender failing, a missing script) is recorded
 // with an "error" in job.json and summary.json; the other paths and the report go on.
 #include <signal.h>
