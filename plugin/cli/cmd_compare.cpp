@@ -824,6 +824,10 @@ public:
             if (!f.empty() && f != "-" && f.rfind("fd:", 0) != 0 && fs::exists(f, ec))
                 named.push_back(fs::weakly_canonical(f, ec));
         if (fs::exists(fs::symlink_status(dest_, ec))) {
+            if (fs::is_symlink(fs::symlink_status(dest_, ec)))
+                throw CliError("compare: -o " + dest_.string() +
+                               ": is a symbolic link; the output set is swapped in by renaming, so give the folder "
+                               "itself (" + fs::weakly_canonical(dest_, ec).string() + ")");
             if (!fs::is_directory(fs::symlink_status(dest_, ec)))
                 throw CliError("compare: -o " + dest_.string() + ": exists and is not a folder");
             const bool earlier = fs::is_regular_file(dest_ / "job.json", ec);
