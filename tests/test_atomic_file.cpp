@@ -1,7 +1,8 @@
 // The one atomic-write helper (airmass/atomic_file.hpp): a failure or a cancel before commit()
 // keeps the previous file and leaves no temporary; a killed process's temporary is removed by
 // the next write of the same destination, a live process's is not. (End to end, every CLI
-// writer against real faults: tests/python/test_faults.py.)
+// writer against real faults: tests/python/test_faults.py.) A folder published whole (compare's
+// output set): the staging folder swapped in, with and without RENAME_EXCHANGE.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -102,6 +103,51 @@ TEST(AtomicFile, UnwritableDestinationsAreRefusedBeforeAnyWork) {
     EXPECT_THROW(check_output_destination("/proc/airmass-x.json"), FileWriteError);  // even for root
     EXPECT_THROW(check_output_destination(""), FileWriteError);
     EXPECT_EQ(d.entries(), 0u);
+}
+
+// A folder published whole (`airmass compare -o DIR`): the staging folder becomes DIR in one
+// rename, by RENAME_EXCHANGE or by the fallback (DIR renamed aside first); nothing of the
+// previous set stays, no staging or old folder is left.
+TEST(AtomicFolder, PublishReplacesTheWholeSet) {
+    for (const bool exchange : {true, false}) {
+        Folder d;
+        const fs::path dest = d.path / "cmp";
+        for (const char* run : {"first", "second"}) {
+            const fs::path stage = staging_folder_for(dest);
+            EXPECT_EQ(stage.parent_path(), d.path);
+            EXPECT_EQ(stage.filename().string(), ".cmp.airmass-stage-" + std::to_string(::getpid()));
+            fs::create_directories(stage / "png");
+            std::ofstream(stage / "job.json") << run;
+            if (std::string(run) == "first") std::ofstream(stage / "atmosphere.vdb") << "only in the first";
+            EXPECT_EQ(publish_folder(stage, dest, exchange), fs::path());
+            EXPECT_EQ(read(dest / "job.json"), run) << exchange;
+            EXPECT_EQ(d.entries(), 1u) << exchange;  // DIR alone
+        }
+        EXPECT_FALSE(fs::exists(dest / "atmosphere.vdb")) << exchange;
+        EXPECT_TRUE(fs::is_directory(dest / "png"));
+    }
+}
+
+TEST(AtomicFolder, TheNextPublisherRemovesStagingOfDeadProcessesOnly) {
+    Folder d;
+    const fs::path dest = d.path / "cmp";
+    fs::create_directories(dest);
+    std::ofstream(dest / "job.json") << "previous";
+    const fs::path dead = d.path / (".cmp.airmass-stage-" + std::to_string(dead_pid()));
+    const fs::path live = d.path / (".cmp.airmass-stage-" + std::to_string(::getppid()));
+    const fs::path other = d.path / (".other.airmass-stage-" + std::to_string(dead_pid()));
+    for (const auto& p : {dead, live, other}) fs::create_directories(p / "png");
+    EXPECT_EQ(remove_stale_staging(dest), 1u);
+    EXPECT_FALSE(fs::exists(dead));
+    EXPECT_TRUE(fs::exists(live));   // another run may be writing it now
+    EXPECT_TRUE(fs::exists(other));  // not this destination's
+    EXPECT_EQ(read(dest / "job.json"), "previous");
+    // Killed between the fallback's two renames: DIR is missing, its previous set is the old folder.
+    const fs::path old = d.path / (".cmp.airmass-old-" + std::to_string(dead_pid()));
+    fs::rename(dest, old);
+    remove_stale_staging(dest);
+    EXPECT_FALSE(fs::exists(old));
+    EXPECT_EQ(read(dest / "job.json"), "previous");
 }
 
 }  // namespace

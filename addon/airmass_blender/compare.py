@@ -11,7 +11,8 @@ module
   2. runs `airmass compare SCENE -o TMP --blender <this Blender> --scripts <zip>/compare_scripts
      --addon <folder holding airmass_blender> ...` as a subprocess into a fresh temporary
      folder beside the result, reading its progress events (--progress-json, JSON lines) and
-     the Blender logs. This
+     the Blender logs (where the events say they are: the CLI writes into a staging folder
+     beside TMP and swaps it in whole at the end, carrying scene.toml and the events file). This
      Blender (bpy.app.binary_path) does everything the CLI does not do natively: the renders
      and the report (report.py in this Blender's own Python, numpy and bpy's image API), so no
      system Python is needed; the add-on never passes --python;
@@ -350,7 +351,10 @@ class _Progress:
         if kind == "render_start":
             w = self._weight(step, path)
             self.steps[e["index"]] = w
-            self.current = {"step": step, "path": path, "weight": w, "renders": e.get("renders"), "fraction": 0.0}
+            # "log": where the step's log is written while it runs (the CLI's staging folder
+            # beside its -o folder, published whole at the end).
+            self.current = {"step": step, "path": path, "weight": w, "renders": e.get("renders"), "fraction": 0.0,
+                            "log": e.get("log") or os.path.join(self.work_dir, "blender_%s.log" % path)}
             self.status = ("Blender: %s" % path) if step.startswith("blender ") else step.replace("_", " ")
         elif kind == "progress" and self.current is not None and e.get("of"):
             self.current["fraction"] = min(1.0, float(e["done"]) / float(e["of"]))
@@ -377,7 +381,7 @@ class _Progress:
         if c is not None:
             if c["step"].startswith("blender ") and c["renders"]:
                 try:
-                    with open(os.path.join(self.work_dir, "blender_%s.log" % c["path"]), errors="replace") as f:
+                    with open(c["log"], errors="replace") as f:
                         k = sum(1 for ln in f if ln.startswith("[airmass-compare] blender_") and ln.rstrip().endswith(" s"))
                 except OSError:
                     k = 0
@@ -612,6 +616,12 @@ class ComparePlan(Plan):
         return images
 
     def abort(self):
+        if self.work_dir:
+            # The CLI's staging folder beside the work folder, left if it had to be killed.
+            stage = ".%s.airmass-stage-" % os.path.basename(self.work_dir)
+            for n in os.listdir(self.folder):
+                if n.startswith(stage):
+                    _remove_tree(os.path.join(self.folder, n))
         _remove_tree(self.work_dir)
         self.work_dir = None
 

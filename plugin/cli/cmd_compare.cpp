@@ -16,7 +16,8 @@
 //
 // This file runs a plan (compare_plan.hpp: the path table, the native renders and steps each
 // path needs, the job schema, the checks of the options): options → plan → run → report.
-// What it does, in order (every file lands in DIR):
+// What it does, in order (every file lands in the staging folder beside DIR, swapped in whole
+// as DIR once the run completes: OutputFolder below; DIR keeps its previous set until then):
 //   1. native renders (render.hpp): native_physical.exr (spectral, the scene's phase
 //      functions), native_hg_spectral.exr (Henyey–Greenstein phases), native_matched.exr
 //      (what Blender renders from the volume export: HG + the renderer RGB model) and, for
@@ -30,7 +31,7 @@
 //   4. compare/report.py: report.md, PNGs and summary.json, run by default in the same Blender
 //      (`blender -b --factory-startup --python report.py -- DIR`: its bundled Python with numpy,
 //      images through bpy), or with --python EXE (numpy and OpenImageIO; matplotlib optional).
-//      Stale report.md / summary.json are removed first, so a failed report leaves none.
+//      A failed report fails the run: DIR keeps its previous set.
 // A path that cannot run (an export refused, Blender failing, a missing script) is recorded
 // with an "error" in job.json and summary.json; the other paths and the report go on.
 #include <signal.h>
@@ -48,6 +49,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -64,6 +66,7 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
+#include "airmass/atomic_file.hpp"
 #include "airmass/image_io.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/terminal.hpp"
@@ -322,7 +325,10 @@ RenderSettings native_settings(const std::string& name, const RenderSettings& ba
     throw std::logic_error("compare: no native render " + name);
 }
 
-void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, ProgressEvents& events) {
+// Writes the whole comparison into `dir`, the staging folder (OutputFolder): every file there,
+// the paths in job.json naming it (OutputFolder::publish rebases them onto DIR).
+void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, ProgressEvents& events,
+                       const fs::path& dir, CancelFlag& cancel) {
     using namespace render_detail;
     const Scene scene =
         load_render_scene(o.scene_path, o.preset, o.sun_elevation_deg, o.sun_rotation_deg, "compare", o.camera);
@@ -332,19 +338,9 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
     auto wants = [&](std::string_view p) { return plan.wants(p); };
     const fs::path scripts = find_scripts_dir(o.scripts);
     const fs::path addon = o.addon.empty() ? scripts.parent_path() / "addon" : fs::path(o.addon);
-    const fs::path dir = fs::absolute(o.output);
     std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (ec || !fs::is_directory(dir)) throw CliError("compare: cannot create output directory " + dir.string());
-    try {
-        check_output_destination(dir / "job.json");  // the folder writable, before any render
-    } catch (const FileWriteError& e) {
-        throw CliError(std::string("compare: ") + e.what());
-    }
     events.set_steps(plan.steps);  // every step of this run, in order (the events' index / total)
 
-    CancelFlag cancel;
-    InterruptGuard guard(cancel);
     const bool bar_on = stderr_is_terminal() && !o.quiet;
     auto check_cancel = [&] {
         if (cancel.requested()) throw Cancelled("compare: cancelled");
@@ -662,11 +658,7 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
     // renders each Blender path makes (and POV-Ray processes each POV-Ray path runs).
     job["plan"] = compare::plan_json(plan, job);
     write_text(dir / "job.json", job.dump(2) + "\n");
-    if (o.no_blender) {
-        events.emit(json{{"event", "done"}, {"ok", true}});
-        say(o.quiet, "wrote " + (dir / "job.json").string() + " (--no-blender)");
-        return;
-    }
+    if (o.no_blender) return;
 
     // ---- the renderers: Blender and POV-Ray --------------------------------------------------------
     // One loop for both (the path table's renderer): each path is a list of child processes run by
@@ -680,9 +672,12 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
         const std::string renderer = compare::renderer_name(compare::path_info(p).renderer);
         const bool pov = renderer == "povray";
         const std::string step = compare::renderer_step(p);
+        const fs::path log = dir / (renderer + "_" + p + ".log");
         {
+            // `log`: where the step's log is written while it runs (the staging folder).
             json e = events.event("render_start", step, p);
             e["renders"] = job["plan"][pov ? "povray_renders" : "blender_renders"].value(p, 0);
+            e["log"] = log.string();
             events.emit(e);
         }
         if (job["errors"].contains(p)) {
@@ -690,7 +685,6 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
             step_done(step, p, false, 0.0);
             continue;
         }
-        const fs::path log = dir / (renderer + "_" + p + ".log");
         fs::remove(log, ec);
         struct Run {
             std::vector<std::string> argv;
@@ -780,9 +774,6 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
     if (o.no_report) return;
     const fs::path log = dir / "report.log";
     fs::remove(log, ec);
-    // The outputs of an earlier report describe earlier renders: gone before this one runs, so a
-    // failure leaves no report at all (report.py writes each file atomically).
-    for (const char* f : {"report.md", "summary.json"}) fs::remove(dir / f, ec);
     const std::string report_py = (scripts / "report.py").string();
     const bool in_blender = o.python.empty();
     const std::vector<std::string> report_argv =
@@ -791,7 +782,11 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
                    : std::vector<std::string>{o.python, report_py, dir.string()};
     const std::string runner = in_blender ? "Blender (" + o.blender + ")" : "--python " + o.python;
     say(o.quiet, "report (" + runner + ") ...");
-    events.emit(events.event("render_start", "report"));
+    {
+        json e = events.event("render_start", "report");
+        e["log"] = log.string();
+        events.emit(e);
+    }
     const auto t_report = std::chrono::steady_clock::now();
     bool timed_out = false;
     const int rc = run_process(report_argv, log, o.plan.timeout_s, cancel, timed_out);
@@ -799,29 +794,163 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
     if (rc != 0 || !fs::is_regular_file(dir / "summary.json") || !fs::is_regular_file(dir / "report.md"))
         throw CliError("compare: the report (compare/report.py in " + runner + ") " +
                        (timed_out ? "timed out" : rc != 0 ? "failed" : "wrote no report.md / summary.json") +
-                       " (exit status " + std::to_string(rc) + "); the renders are in " + dir.string() +
-                       "; last lines of " + log.string() + ":\n" + tail_of(log, 20));
+                       " (exit status " + std::to_string(rc) + "); last lines of report.log:\n" + tail_of(log, 20));
     if (!o.quiet) std::fprintf(stderr, "%s", tail_of(log, 40).c_str());
     step_done("report", "", true, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_report).count());
-    events.emit(json{{"event", "done"}, {"ok", true}});
-    say(o.quiet, "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
 }
 
-// Options → plan → run → report. The plan's checks come first (no file is touched for a bad
-// option); run_compare_steps' progress events end, on a failure, with error and done {ok: false}.
+// The output set (docs/reliability.md, "Faults"): the run writes into a staging folder beside
+// DIR (atomic_file.hpp, staging_folder_for) and publish() swaps it in whole, so DIR holds the
+// previous complete set (or nothing) until then. A cancel, a failure or a failing report
+// removes the staging folder (the destructor); a kill -9 leaves it, and the next run removes
+// it (remove_stale_staging). DIR is replaced as a whole, so it must be new, empty, an earlier
+// comparison (job.json), or hold only files this command line names (the scene, the
+// --progress-json file: the add-on keeps both there); those are carried into the new set
+// (hard links: the progress file keeps receiving events through the open stream).
+class OutputFolder {
+public:
+    OutputFolder(const CompareOptions& o) {
+        fs::path out = fs::absolute(o.output).lexically_normal();
+        if (!out.has_filename()) out = out.parent_path();  // "DIR/"
+        if (out == out.root_path() || !out.has_filename() || out.filename() == "..")
+            throw CliError("compare: -o " + o.output + ": not a folder that can be replaced; give a folder to create");
+        dest_ = out;
+        const fs::path parent = dest_.parent_path();
+        std::error_code ec;
+        fs::create_directories(parent, ec);
+        if (!fs::is_directory(parent, ec)) throw CliError("compare: cannot create the folder " + parent.string());
+        std::vector<fs::path> named;  // files the command line names, by their canonical path
+        for (const std::string& f : {o.scene_path, o.progress_json})
+            if (!f.empty() && f != "-" && f.rfind("fd:", 0) != 0 && fs::exists(f, ec))
+                named.push_back(fs::weakly_canonical(f, ec));
+        if (fs::exists(fs::symlink_status(dest_, ec))) {
+            if (fs::is_symlink(fs::symlink_status(dest_, ec)))
+                throw CliError("compare: -o " + dest_.string() +
+                               ": is a symbolic link; the output set is swapped in by renaming, so give the folder "
+                               "itself (" + fs::weakly_canonical(dest_, ec).string() + ")");
+            if (!fs::is_directory(fs::symlink_status(dest_, ec)))
+                throw CliError("compare: -o " + dest_.string() + ": exists and is not a folder");
+            const bool earlier = fs::is_regular_file(dest_ / "job.json", ec);
+            for (fs::directory_iterator it(dest_, ec), end; !ec && it != end; it.increment(ec)) {
+                const fs::path c = fs::weakly_canonical(it->path(), ec);
+                if (std::find(named.begin(), named.end(), c) != named.end())
+                    carried_.push_back(it->path().filename());
+                else if (!earlier)
+                    throw CliError("compare: -o " + dest_.string() + " holds '" + it->path().filename().string() +
+                                   "', which is not from airmass compare (no job.json there): the output folder is "
+                                   "replaced as a whole; give a new or empty folder, or an earlier comparison's");
+            }
+            struct stat a{}, b{};
+            if (::stat(dest_.c_str(), &a) == 0 && ::stat(parent.c_str(), &b) == 0 && a.st_dev != b.st_dev)
+                throw CliError("compare: -o " + dest_.string() +
+                               " is a mount point: the output set is swapped in by renaming a folder beside it; give "
+                               "a folder inside it");
+            // The previous set is removed from it once the new one is in place.
+            if (::access(dest_.c_str(), W_OK) != 0)
+                throw CliError("compare: cannot write '" + dest_.string() + "': it is not writable (" +
+                               std::strerror(errno) + ")");
+        }
+        remove_stale_staging(dest_);
+        const fs::path staging = staging_folder_for(dest_);
+        if (!fs::create_directory(staging, ec) || ec)
+            throw CliError("compare: cannot write beside '" + dest_.string() + "': directory '" + parent.string() +
+                           "' is not writable (" + (ec ? ec.message() : std::string("exists")) + ")");
+        staging_ = staging;
+    }
+    OutputFolder(const OutputFolder&) = delete;
+    OutputFolder& operator=(const OutputFolder&) = delete;
+    ~OutputFolder() {
+        std::error_code ec;
+        if (!staging_.empty()) fs::remove_all(staging_, ec);
+    }
+    const fs::path& staging() const { return staging_; }
+    const fs::path& dest() const { return dest_; }
+    // A message about the staging folder, about DIR instead (where the file will be).
+    std::string about_dest(std::string text) const {
+        const std::string from = staging_.string(), to = dest_.string();
+        for (std::size_t k = 0; !from.empty() && (k = text.find(from, k)) != std::string::npos; k += to.size())
+            text.replace(k, from.size(), to);
+        return text;
+    }
+
+    void publish() {
+        std::error_code ec;
+        // The JSON files name their inputs by absolute path (job.json's sky texture, VDB, POV-Ray
+        // scenes; blender_<path>.json): rebased onto DIR.
+        for (fs::directory_iterator it(staging_, ec), end; !ec && it != end; it.increment(ec)) {
+            if (it->path().extension() != ".json" || !it->is_regular_file()) continue;
+            json j;
+            try {
+                std::ifstream in(it->path());
+                j = json::parse(in);
+            } catch (const std::exception&) {
+                continue;
+            }
+            if (rebase(j)) write_text(it->path(), j.dump(2) + "\n");
+        }
+        for (const fs::path& name : carried_) {
+            const fs::path from = dest_ / name, to = staging_ / name;
+            if (fs::exists(to, ec)) continue;
+            if (::link(from.c_str(), to.c_str()) != 0) fs::copy_file(from, to, ec);
+        }
+        const fs::path left = publish_folder(staging_, dest_);
+        staging_.clear();
+        if (!left.empty())
+            std::fprintf(stderr, "compare: warning: the previous set could not be removed: it is in %s\n",
+                         left.c_str());
+    }
+
+private:
+    bool rebase(json& j) const {
+        const std::string from = staging_.string();
+        if (j.is_string()) {
+            const std::string& v = j.get_ref<const std::string&>();
+            if (v == from || (v.size() > from.size() && v.compare(0, from.size(), from) == 0 && v[from.size()] == '/')) {
+                j = dest_.string() + v.substr(from.size());
+                return true;
+            }
+            return false;
+        }
+        bool changed = false;
+        if (j.is_structured())
+            for (auto& v : j) changed = rebase(v) || changed;
+        return changed;
+    }
+
+    fs::path dest_, staging_;
+    std::vector<fs::path> carried_;
+};
+
+// Options → plan → run → report → publish. The plan's checks come first (no file is touched for
+// a bad option); run_compare_steps' progress events end, on a failure, with error and done
+// {ok: false}, and on success with done {ok: true} once the set is in DIR.
 void run_compare(const CompareOptions& o) {
     compare::PlanInputs in = o.plan;
     in.renderers = !o.no_blender;
     in.report = !o.no_report;
     const compare::Plan plan = compare::make_plan(in);
     ProgressEvents events(o.progress_json);
+    std::unique_ptr<OutputFolder> folder;
     try {
-        run_compare_steps(o, plan, events);
+        folder = std::make_unique<OutputFolder>(o);
+        CancelFlag cancel;
+        InterruptGuard guard(cancel);
+        run_compare_steps(o, plan, events, folder->staging(), cancel);
+        if (cancel.requested()) throw Cancelled("compare: cancelled");
+        folder->publish();
     } catch (const std::exception& ex) {
-        events.emit(json{{"event", "error"}, {"step", nullptr}, {"path", nullptr}, {"message", ex.what()}});
+        const std::string what = folder ? folder->about_dest(ex.what()) : std::string(ex.what());
+        events.emit(json{{"event", "error"}, {"step", nullptr}, {"path", nullptr}, {"message", what}});
         events.emit(json{{"event", "done"}, {"ok", false}});
-        throw;
+        folder.reset();  // the staging folder goes; DIR holds the previous set
+        if (dynamic_cast<const Cancelled*>(&ex)) throw Cancelled(what);
+        throw CliError(what);
     }
+    events.emit(json{{"event", "done"}, {"ok", true}});
+    const fs::path dir = folder->dest();
+    say(o.quiet, o.no_blender || o.no_report
+                     ? "wrote " + dir.string() + (o.no_blender ? " (--no-blender)" : " (--no-report)")
+                     : "wrote " + (dir / "report.md").string() + " and " + (dir / "summary.json").string());
 }
 
 }  // namespace

@@ -1173,8 +1173,9 @@ def test_compare_sky_texture():
 
     def cancel_when_blender_runs():
         for _ in range(1200):
+            # The log is written in the CLI's staging folder beside the add-on's temporary folder.
             tmp = [f for f in _temporaries(out) if ".tmp-" in f]
-            if tmp and os.path.exists(os.path.join(out, tmp[0], "blender_analytic_volume.log")):
+            if any(os.path.exists(os.path.join(out, t, "blender_analytic_volume.log")) for t in tmp):
                 break
             time.sleep(0.05)
         prog.cancel()

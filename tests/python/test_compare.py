@@ -29,8 +29,10 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -531,8 +533,9 @@ def _cheap_compare(airmass_bin, out, *args):
 @needs_blender
 def test_report_failure_is_reported_and_leaves_no_report(airmass_bin, tmp_path):
     """A report that fails — report.py raising inside Blender (the default), or a --python that
-    cannot run it — fails the command with the report log's last lines in the message, and leaves
-    neither report.md nor summary.json (not even an earlier run's) nor a temporary file."""
+    cannot run it — fails the command with the report log's last lines in the message, and
+    leaves the folder's earlier comparison exactly as it was (no report of these renders, no
+    staging folder, no temporary file)."""
     scripts = tmp_path / "scripts"
     shutil.copytree(os.path.join(REPO, "compare"), scripts, ignore=shutil.ignore_patterns("__pycache__"))
     text = (scripts / "report.py").read_text(encoding="utf-8")
@@ -549,16 +552,16 @@ def test_report_failure_is_reported_and_leaves_no_report(airmass_bin, tmp_path):
                                                "stand-in python: no module named numpy"])):
         out = tmp_path / name
         out.mkdir()
-        for stale in ("report.md", "summary.json"):
+        for stale in ("report.md", "summary.json", "job.json"):
             (out / stale).write_text("from an earlier run\n")
         p = _cheap_compare(airmass_bin, out, *args)
         assert p.returncode != 0, (name, p.stderr)
         for w in words:
             assert w in p.stderr, (name, w, p.stderr)
-        assert "last lines of " + str(out / "report.log") in p.stderr, (name, p.stderr)
-        left = sorted(os.listdir(out))
-        assert "report.md" not in left and "summary.json" not in left, (name, left)
-        assert not [f for f in left if ".tmp" in f], (name, left)
+        assert "last lines of report.log" in p.stderr, (name, p.stderr)
+        assert _set(out) == {n: b"from an earlier run\n" for n in ("report.md", "summary.json", "job.json")}, \
+            (name, sorted(_set(out)))
+        assert _staging(out) == [] and not [f for f in os.listdir(out) if ".tmp" in f], (name, os.listdir(tmp_path))
     # and the same comparison with the real report.py succeeds in Blender
     out = tmp_path / "ok"
     p = _cheap_compare(airmass_bin, out)
@@ -566,3 +569,95 @@ def test_report_failure_is_reported_and_leaves_no_report(airmass_bin, tmp_path):
     with open(out / "summary.json") as f:
         assert "error" in json.load(f)["paths"]["vdb_volume"]
     assert "'s image API (bpy)" in _backend_line((out / "report.md").read_text(encoding="utf-8"))
+
+
+# ---- the output set appears whole (docs/reliability.md, "Faults") ----------------------------------------
+
+def _set(out):
+    """{path relative to out: bytes} of every file of a comparison folder."""
+    return {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
+
+
+def _staging(out):
+    """compare's staging (and fallback's old) folders beside out."""
+    return sorted(n for n in os.listdir(out.parent) if n.startswith("." + out.name + ".airmass-"))
+
+
+def _sky_argv(airmass_bin, out, *args):
+    return [str(airmass_bin), "compare", os.path.join(EXAMPLES, "ground-noon.toml"), "-o", str(out), "-q",
+            "--threads", "2", "--paths", "sky_texture", "--width", "16", "--sky-samples", "4", *map(str, args)]
+
+
+def _previous_set(airmass_bin, out):
+    """An earlier comparison in out, with files a sky_texture run does not make (atmosphere.vdb,
+    native_matched_box.exr): native renders and inputs only, ≈ 1 s."""
+    run([airmass_bin, "compare", "--preset", "earth", "-o", out, "-q", "--no-blender", "--width", 16, "--height", 9,
+         "--view-samples", 2, "--threads", 2, "--paths", "vdb_volume", "--voxel-size", 2])
+    before = _set(out)
+    assert {"atmosphere.vdb", "native_matched_box.exr", "job.json"} <= set(before), sorted(before)
+    return before
+
+
+def _check_sky_set(out):
+    """out holds a complete sky_texture comparison and nothing of the earlier one; its JSON
+    names files in out, not in the staging folder it was made in."""
+    after = _set(out)
+    assert {"job.json", "summary.json", "report.md", "sky.exr", "blender_sky_texture.log"} <= set(after), sorted(after)
+    assert "atmosphere.vdb" not in after and "native_matched_box.exr" not in after, sorted(after)
+    with open(out / "job.json") as f:
+        assert json.load(f)["sky_texture"]["file"] == str(out / "sky.exr")
+    for name, data in after.items():
+        if name.endswith((".json", ".md")):
+            assert b".airmass-stage-" not in data, name
+    assert _staging(out) == []
+
+
+@needs_blender
+def test_a_rerun_replaces_the_whole_set(airmass_bin, tmp_path):
+    out = tmp_path / "cmp"
+    _previous_set(airmass_bin, out)
+    run(_sky_argv(airmass_bin, out))
+    _check_sky_set(out)
+
+
+def _stopped_in_blender(airmass_bin, tmp_path, sig):
+    """An earlier comparison in tmp_path/cmp; a sky_texture run signalled while Blender renders.
+    Returns (earlier set, out, process, its stderr, its staging folder)."""
+    out = tmp_path / "cmp"
+    before = _previous_set(airmass_bin, out)
+    events = tmp_path / "events.jsonl"
+    proc = subprocess.Popen(_sky_argv(airmass_bin, out, "--progress-json", events), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    stage = out.parent / (".cmp.airmass-stage-%d" % proc.pid)
+    log = None
+    deadline = time.monotonic() + 300
+    while log is None and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+        for ln in events.read_text().splitlines() if events.exists() else []:
+            e = json.loads(ln)
+            if e["event"] == "render_start" and e["step"] == "blender sky_texture":
+                log = e["log"]  # written where the run works: the staging folder
+    assert log is not None, proc.communicate()
+    assert os.path.dirname(log) == str(stage) and os.path.isfile(log)
+    while "Blender" not in open(log, errors="replace").read() and time.monotonic() < deadline:
+        time.sleep(0.1)  # Blender has started
+    assert _set(out) == before  # nothing published yet
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert _set(out) == before, err
+    return before, out, proc, err, stage
+
+
+@needs_blender
+def test_ctrl_c_mid_run_keeps_the_previous_set(airmass_bin, tmp_path):
+    _, out, proc, err, _ = _stopped_in_blender(airmass_bin, tmp_path, signal.SIGINT)
+    assert proc.returncode != 0 and "cancel" in err, (proc.returncode, err)
+    assert _staging(out) == []
+
+
+@needs_blender
+def test_kill_9_mid_run_keeps_the_previous_set_and_the_next_run_cleans_up(airmass_bin, tmp_path):
+    _, out, proc, _, stage = _stopped_in_blender(airmass_bin, tmp_path, signal.SIGKILL)
+    assert _staging(out) == [stage.name]  # what kill -9 leaves: named, beside out
+    run(_sky_argv(airmass_bin, out))
+    _check_sky_set(out)

@@ -14,6 +14,9 @@ each fault while it writes:
 After each: every target path holds its previous bytes or a complete new file (an EXR that
 reads whole at the new size) — never a part; no temporary is left, except after kill -9 the
 killed process's own `.<stem>.airmass-tmp-<pid>-<n><ext>`, which the next run removes.
+`airmass compare -o DIR` publishes a folder: its writer here puts DIR = <folder>/cmp, so the
+fault hits the folder that holds DIR and its staging folder `.cmp.airmass-stage-<pid>` (where
+the temporaries are written); after kill -9 that staging folder is what is left.
 `airmass sun`, `eval` and `chapman` write to stdout only: a full disk there (/dev/full) must
 fail the command. `airmass compare`'s Blender children on SIGINT/SIGKILL: CTest cli_compare_kill.
 """
@@ -32,6 +35,7 @@ import OpenImageIO as oiio
 import pytest
 
 TMP_RE = re.compile(r"^\.(?P<stem>.+)\.airmass-tmp-(?P<pid>\d+)-(?P<n>\d+)(?P<ext>\.[A-Za-z0-9]+)?$")
+STAGE_RE = re.compile(r"^\.(?P<name>.+)\.airmass-stage-(?P<pid>\d+)$")  # compare's staging folder
 SKY = ["--preset", "earth", "--no-multiple", "--basis", "rgb", "--samples", "4", "-q"]
 BOX = "-20,-20,0,20,20,10"
 
@@ -62,7 +66,7 @@ def vdb(d, level):
 
 def compare(d, level):
     w = [64, 256, 512, 1024][level]
-    return ["compare", "--preset", "earth", "-o", d, "--no-blender", "--width", w, "--height", w * 9 // 16,
+    return ["compare", "--preset", "earth", "-o", d / "cmp", "--no-blender", "--width", w, "--height", w * 9 // 16,
             "--view-samples", 2, "--threads", 2, "--paths", "vdb_volume", "--voxel-size", 2, "-q"]
 
 
@@ -78,13 +82,26 @@ def run(airmass_bin, args, check=True, **kw):
     return p
 
 
+def _visible_folders(d):
+    """d and its sub-folders not hidden, as paths relative to d ("" for d)."""
+    out = [""]
+    for root, dirs, _ in os.walk(d):
+        dirs[:] = [x for x in dirs if not x.startswith(".")]
+        out += [os.path.relpath(os.path.join(root, x), d) for x in dirs]
+    return out
+
+
 def temporaries(d):
-    """Every temporary-looking name in d: ours, and cmd_sky's CSV's "<name>.tmp-<pid>"."""
-    return sorted(n for n in os.listdir(d) if ".airmass-tmp-" in n or ".tmp-" in n)
+    """Every temporary-looking name in d and its visible sub-folders (relative to d): ours,
+    compare's staging folders, and cmd_sky's CSV's "<name>.tmp-<pid>"."""
+    return sorted(os.path.join(f, n) for f in _visible_folders(d) for n in os.listdir(d / f)
+                  if ".airmass-tmp-" in n or ".tmp-" in n or ".airmass-stage-" in n or ".airmass-old-" in n)
 
 
 def snapshot(d):
-    return {n: (d / n).read_bytes() for n in os.listdir(d) if not n.startswith(".")}
+    """{path relative to d: bytes} of every file not hidden, sub-folders included."""
+    return {os.path.join(f, n): (d / f / n).read_bytes() for f in _visible_folders(d) for n in os.listdir(d / f)
+            if not n.startswith(".") and (d / f / n).is_file()}
 
 
 def exr_size(path):
@@ -124,6 +141,7 @@ def previous_result(airmass_bin, writer, d):
     before = _PREVIOUS[writer]
     assert before
     for name, data in before.items():
+        (d / name).parent.mkdir(parents=True, exist_ok=True)
         (d / name).write_bytes(data)
     return before
 
@@ -211,6 +229,7 @@ def test_full_disk_keeps_the_previous_result(airmass_bin, tmp_path, writer):
     with tmpfs(tmp_path / "out", (pages + 1) * 4096) as d:
         # The previous result fills the disk but for one page.
         for name, data in before.items():
+            (d / name).parent.mkdir(parents=True, exist_ok=True)
             (d / name).write_bytes(data)
         p = run(airmass_bin, WRITERS[writer](d, 0), check=False)
         assert p.returncode != 0, "the run fitted: the disk was not full"
@@ -230,8 +249,9 @@ def stopped_mid_write(airmass_bin, writer, d):
                                 stderr=subprocess.PIPE, text=True)
         deadline = time.monotonic() + 120
         while proc.poll() is None and time.monotonic() < deadline:
-            for name in os.listdir(d):
-                if ".airmass-tmp-" not in name:
+            names = [os.path.relpath(os.path.join(root, n), d) for root, _, files in os.walk(d) for n in files]
+            for name in names:
+                if ".airmass-tmp-" not in os.path.basename(name):
                     continue
                 try:
                     if os.stat(d / name).st_size == 0:
@@ -248,9 +268,15 @@ def stopped_mid_write(airmass_bin, writer, d):
 
 
 def destination_of(temp):
-    m = TMP_RE.match(temp)
+    """(destination relative to d, pid) of a temporary (relative to d) or a staging folder."""
+    folder, name = os.path.split(temp)
+    s = STAGE_RE.match(name)
+    if s:
+        return s["name"], int(s["pid"])
+    m = TMP_RE.match(name)
     assert m, f"temporary {temp!r} is not named .<stem>.airmass-tmp-<pid>-<n><ext>"
-    return m["stem"] + (m["ext"] or ""), int(m["pid"])
+    s = STAGE_RE.match(folder)  # written in compare's staging folder: its destination is in DIR
+    return os.path.join(s["name"] if s else folder, m["stem"] + (m["ext"] or "")), int(m["pid"])
 
 
 def caught_mid_write(airmass_bin, writer, tmp_path):
@@ -283,16 +309,23 @@ def test_ctrl_c_while_writing_keeps_the_previous_or_the_complete_file(airmass_bi
 @pytest.mark.parametrize("writer", WRITERS)
 def test_kill_9_while_writing_leaves_a_named_temporary_the_next_run_removes(airmass_bin, tmp_path, writer):
     d, before, proc, temp, target = caught_mid_write(airmass_bin, writer, tmp_path)
-    # A temporary of a live process (this one) for the same destination: never touched.
-    stem, ext = os.path.splitext(target)
-    live = f".{stem}.airmass-tmp-{os.getpid()}-0{ext}"
-    (d / live).write_bytes(b"in use")
+    # A temporary of a live process (this one) for the same destination: never touched. For
+    # compare, the staging folder of a live process for the same DIR.
+    folder, name = os.path.split(target)
+    stem, ext = os.path.splitext(name)
+    if folder:
+        live = f".{folder}.airmass-stage-{os.getpid()}"
+        (d / live).mkdir()
+        (d / live / "job.json").write_bytes(b"in use")
+    else:
+        live = f".{stem}.airmass-tmp-{os.getpid()}-0{ext}"
+        (d / live).write_bytes(b"in use")
     proc.send_signal(signal.SIGKILL)
     proc.communicate(timeout=60)  # reaped: its pid no longer exists
     assert (d / target).read_bytes() == before[target]
     assert_previous_or_complete(d, before, changed_ok=True)
     left = [t for t in temporaries(d) if t != live]
-    assert temp in left
+    assert temp in left or temp.split(os.sep)[0] in left, (temp, left)
     for t in left:
         assert destination_of(t)[1] == proc.pid, left
     # The next run of the same command cleans up after the killed one (not after the live one).

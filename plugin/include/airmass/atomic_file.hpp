@@ -72,6 +72,24 @@ private:
     bool done_ = false;
 };
 
+// A folder of outputs published whole (`airmass compare -o DIR`). The outputs are written
+// into a staging folder beside DIR (same parent, so the same filesystem),
+//     <parent>/.<name>.airmass-stage-<pid>
+// and publish_folder swaps it in by one rename: Linux's renameat2(RENAME_EXCHANGE) when DIR
+// exists (DIR becomes the new set in one step, the staging name the old set, then removed),
+// rename(2) when it does not. Where the exchange is not supported, DIR is first renamed to
+// <parent>/.<name>.airmass-old-<pid> and the staging folder then renamed to DIR: between the
+// two, DIR does not exist (the previous set or nothing). A process killed mid-run leaves its
+// staging (or old) folder; remove_stale_staging, run by the next publisher of DIR, removes
+// those of processes that no longer exist — putting an old folder back as DIR if DIR is missing.
+std::filesystem::path staging_folder_for(const std::filesystem::path& dest);
+std::size_t remove_stale_staging(const std::filesystem::path& dest);
+// Swaps `staging` in as `dest` (see above) and removes the previous set. FileWriteError if the
+// swap fails (nothing changed then). Returns the folder still holding the previous set when it
+// could not be removed (empty: removed). `exchange` false: the fallback (tests).
+std::filesystem::path publish_folder(const std::filesystem::path& staging, const std::filesystem::path& dest,
+                                     bool exchange = true);
+
 // One file: check_output_destination, then write + commit through an AtomicOutputs.
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes, const CancelFlag* cancel = nullptr);
 

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <system_error>
 
@@ -186,6 +187,103 @@ void AtomicOutputs::commit() {
             ::close(fd);
         }
     }
+}
+
+namespace {
+
+constexpr std::string_view kStageTag = ".airmass-stage-";
+constexpr std::string_view kOldTag = ".airmass-old-";
+
+fs::path sibling_for(const fs::path& dest, std::string_view tag, long pid) {
+    return folder_of(dest) / ("." + dest.filename().string() + std::string(tag) + std::to_string(pid));
+}
+
+// The pid in `name` if it is "<.name><tag><pid>" of `dest`, else -1.
+long sibling_pid(const fs::path& dest, std::string_view tag, const std::string& name) {
+    const std::string head = "." + dest.filename().string() + std::string(tag);
+    if (name.size() <= head.size() || name.compare(0, head.size(), head) != 0) return -1;
+    const std::string_view rest(name.data() + head.size(), name.size() - head.size());
+    if (!all_digits(rest) || rest.size() > 9) return -1;
+    return std::stol(std::string(rest));
+}
+
+bool process_gone(long pid) { return pid > 0 && ::kill(pid_t(pid), 0) != 0 && errno == ESRCH; }
+
+void sync_folder(const fs::path& dir) {
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd >= 0) {
+        ::fsync(fd);
+        ::close(fd);
+    }
+}
+
+}  // namespace
+
+fs::path staging_folder_for(const fs::path& dest) { return sibling_for(dest, kStageTag, long(::getpid())); }
+
+std::size_t remove_stale_staging(const fs::path& dest) {
+    std::size_t removed = 0;
+    std::error_code ec;
+    std::vector<fs::path> stage, old;
+    for (fs::directory_iterator it(folder_of(dest), ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        const long s = sibling_pid(dest, kStageTag, name), o = sibling_pid(dest, kOldTag, name);
+        // Our own pid: left by an earlier process that had it (this one has not made it yet).
+        if (s > 0 && (s == long(::getpid()) || process_gone(s))) stage.push_back(it->path());
+        if (o > 0 && (o == long(::getpid()) || process_gone(o))) old.push_back(it->path());
+    }
+    for (const fs::path& p : old) {
+        std::error_code e;
+        // Killed between the fallback's two renames: DIR is missing, and this is its previous set.
+        if (!fs::exists(dest, e) && (fs::rename(p, dest, e), !e)) continue;
+        if (fs::remove_all(p, e) != static_cast<std::uintmax_t>(-1) && !e) ++removed;
+    }
+    for (const fs::path& p : stage) {
+        std::error_code e;
+        if (fs::remove_all(p, e) != static_cast<std::uintmax_t>(-1) && !e) ++removed;
+    }
+    return removed;
+}
+
+fs::path publish_folder(const fs::path& staging, const fs::path& dest, bool exchange) {
+    std::error_code ec;
+    const bool had = fs::exists(fs::symlink_status(dest, ec));
+    fs::path previous;  // where the previous set is once the new one is in place
+    auto fail = [&](const std::string& why) {
+        throw FileWriteError("cannot publish '" + staging.string() + "' as '" + dest.string() + "': " + why);
+    };
+    if (!had) {
+        if (::rename(staging.c_str(), dest.c_str()) != 0) fail(errno_text(errno));
+    } else {
+        bool swapped = false;
+#if defined(__linux__) && defined(RENAME_EXCHANGE)
+        if (exchange) {
+            if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, dest.c_str(), RENAME_EXCHANGE) == 0) {
+                swapped = true;
+                previous = staging;
+            } else if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP) {
+                fail(errno_text(errno));
+            }
+        }
+#else
+        (void)exchange;
+#endif
+        if (!swapped) {
+            const fs::path old = sibling_for(dest, kOldTag, long(::getpid()));
+            fs::remove_all(old, ec);
+            if (::rename(dest.c_str(), old.c_str()) != 0) fail(errno_text(errno));
+            if (::rename(staging.c_str(), dest.c_str()) != 0) {
+                const int err = errno;
+                ::rename(old.c_str(), dest.c_str());  // the previous set back
+                fail(errno_text(err));
+            }
+            previous = old;
+        }
+    }
+    sync_folder(folder_of(dest));
+    if (previous.empty()) return {};
+    fs::remove_all(previous, ec);
+    return ec || fs::exists(previous, ec) ? previous : fs::path();
 }
 
 void write_file_atomic(const fs::path& path, std::string_view bytes, const CancelFlag* cancel) {
