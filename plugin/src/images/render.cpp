@@ -198,6 +198,77 @@ constexpr double kGlX[4] = {0.5 - 0.5 * 0.8611363115940526, 0.5 - 0.5 * 0.339981
 constexpr double kGlW[4] = {0.5 * 0.3478548451374538, 0.5 * 0.6521451548625461, 0.5 * 0.6521451548625461,
                             0.5 * 0.3478548451374538};
 
+#include "../transport/view_march.inc"
+
+// A node of the box's march: its parameter along the view ray and its altitude.
+struct BoxPoint {
+    double t, h;
+};
+
+// The box's sun policy for the march (view_march.inc): the sun masses cut to the box, at a
+// node of the view ray o + t v and from a ground point.
+struct BoxSun {
+    const BoxContext& ctx;
+    const glm::dvec3& o;
+    const glm::dvec3& v;
+    bool operator()(const BoxPoint& x, double* mass) const { return ctx.sun_masses(o + x.t * v, x.h, mass); }
+    void ground(const glm::dvec3& g, double mu_g, double* mass) const {
+        const PlanetRay<double> sun_ray{ctx.atm.planet_radius_m, 0.0, ZenithAngle<double>::from_cos(mu_g)};
+        const Interval in = intersect_box(ctx.box, g, ctx.sun);
+        const double a = std::max(in.t0, 0.0);
+        if (in.empty() || !(in.t1 > a)) std::fill(mass, mass + ctx.nc, 0.0);
+        else constituent_masses(ctx.atm, sun_ray, a, in.t1, std::span<double>(mass, ctx.nc));
+    }
+};
+
+// The box's node rule for the march (view_march.inc): adaptive panels over [a, b] (one
+// layer of altitude change, linear and curvature terms, or 0.3 of optical depth), each split
+// exactly at Earth's shadow boundary, 4-point Gauss–Legendre in each. The view masses are
+// accumulated from a node to the next; `acc` holds them up to b on return. Nodes above the
+// top of the atmosphere are not passed on. node(x, weight, 0, nc, view_masses) per node.
+template <class Node>
+void box_panels(const BoxContext& ctx, const PlanetRay<double>& ray, const glm::dvec3& o, const glm::dvec3& v,
+                double a, double b, double* acc, Node&& node) {
+    const Atmosphere& atm = ctx.atm;
+    const std::size_t nc = ctx.nc;
+    double dm[kMaxConstituents];
+    double prev = a, t = a;
+    while (t < b) {
+        const double h = ray.altitude_at(t);
+        const double mu = std::abs(ray.zenith_at(t).cos_chi);
+        const double r = atm.planet_radius_m + std::max(h, 0.0);
+        double step = std::min(ctx.layer_m / std::max(mu, 1e-12), std::sqrt(2.0 * r * ctx.layer_m));
+        const double sigma = ctx.max_extinction(h);
+        if (sigma > 0.0) step = std::min(step, 0.3 / sigma);
+        step = std::clamp(step, 1.0, 100e3);
+        double end = std::min(t + step, b);
+        // Earth's shadow: split the panel exactly at the boundary.
+        if (ctx.lit(ray, o, v, t) != ctx.lit(ray, o, v, end)) {
+            double lo = t, hi = end;
+            const bool lit_lo = ctx.lit(ray, o, v, lo);
+            for (int it = 0; it < 80 && hi - lo > 1e-9 * (1.0 + hi); ++it) {
+                const double mid = 0.5 * (lo + hi);
+                (ctx.lit(ray, o, v, mid) == lit_lo ? lo : hi) = mid;
+            }
+            end = std::max(hi, t + 1e-9 * (1.0 + t));
+            end = std::min(end, b);
+        }
+        const double len = end - t;
+        for (int k = 0; k < 4; ++k) {
+            const double tk = t + len * kGlX[k];
+            constituent_masses(atm, ray, prev, tk, std::span<double>(dm, nc));
+            for (std::size_t i = 0; i < nc; ++i) acc[i] += dm[i];
+            prev = tk;
+            const BoxPoint x{tk, ray.altitude_at(tk)};
+            if (x.h > atm.top_altitude_m) continue;
+            node(x, len * kGlW[k], std::size_t(0), nc, [&](double* m_view) { std::copy(acc, acc + nc, m_view); });
+        }
+        t = end;
+    }
+    constituent_masses(atm, ray, prev, b, std::span<double>(dm, nc));
+    for (std::size_t i = 0; i < nc; ++i) acc[i] += dm[i];
+}
+
 void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm::dvec3& o, const glm::dvec3& v,
                   std::span<double> out) {
     const Atmosphere& atm = ctx.atm;
@@ -213,67 +284,10 @@ void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm
     const double nu = std::clamp(glm::dot(v, ctx.sun), -1.0, 1.0);
     for (std::size_t i = 0; i < nc; ++i) phase_value[i] = phase(atm.constituents[i].phase, nu);
 
-    double acc[kMaxConstituents] = {};  // view masses from a to prev
-    double dm[kMaxConstituents], ms[kMaxConstituents];
-    SpectrumScratch<double> tau(nw), sigma_s(nw);
-    // τ = Σ_i σt_i (acc_i + ms_i), the view and sun masses together
-    const auto optical_depth_into = [&](SpectrumView<double> t) {
-        fill(t, 0.0);
-        for (std::size_t i = 0; i < nc; ++i) add_scaled(t, atm.constituents[i].extinction_per_m, acc[i] + ms[i]);
-    };
-    if (!in.empty() && b > a) {
-        double prev = a, t = a;
-        while (t < b) {
-            const double h = ray.altitude_at(t);
-            const double mu = std::abs(ray.zenith_at(t).cos_chi);
-            const double r = atm.planet_radius_m + std::max(h, 0.0);
-            // one layer of altitude change (linear and curvature terms), 0.3 of optical depth
-            double step = std::min(ctx.layer_m / std::max(mu, 1e-12), std::sqrt(2.0 * r * ctx.layer_m));
-            const double sigma = ctx.max_extinction(h);
-            if (sigma > 0.0) step = std::min(step, 0.3 / sigma);
-            step = std::clamp(step, 1.0, 100e3);
-            double end = std::min(t + step, b);
-            // Earth's shadow: split the panel exactly at the boundary.
-            if (ctx.lit(ray, o, v, t) != ctx.lit(ray, o, v, end)) {
-                double lo = t, hi = end;
-                const bool lit_lo = ctx.lit(ray, o, v, lo);
-                for (int it = 0; it < 80 && hi - lo > 1e-9 * (1.0 + hi); ++it) {
-                    const double mid = 0.5 * (lo + hi);
-                    (ctx.lit(ray, o, v, mid) == lit_lo ? lo : hi) = mid;
-                }
-                end = std::max(hi, t + 1e-9 * (1.0 + t));
-                end = std::min(end, b);
-            }
-            const double len = end - t;
-            for (int k = 0; k < 4; ++k) {
-                const double tk = t + len * kGlX[k];
-                constituent_masses(atm, ray, prev, tk, std::span<double>(dm, nc));
-                for (std::size_t i = 0; i < nc; ++i) acc[i] += dm[i];
-                prev = tk;
-                const double hk = ray.altitude_at(tk);
-                if (hk > atm.top_altitude_m) continue;
-                if (!ctx.sun_masses(o + tk * v, hk, ms)) continue;
-                double scatter_weight[kMaxConstituents];
-                bool any = false;
-                for (std::size_t i = 0; i < nc; ++i) {
-                    const auto& c = atm.constituents[i];
-                    scatter_weight[i] = c.scatters ? c.profile.at(hk) * phase_value[i] : 0.0;
-                    any = any || scatter_weight[i] > 0.0;
-                }
-                if (!any) continue;
-                const double w_len = len * kGlW[k];
-                optical_depth_into(tau);
-                exp_neg(tau);
-                fill(sigma_s, 0.0);  // Σ_i σs_i ρ_i P_i
-                for (std::size_t i = 0; i < nc; ++i)
-                    add_scaled(sigma_s, atm.constituents[i].scattering_per_m, scatter_weight[i]);
-                add_product(out.first(nw), sigma_s, tau, w_len);
-            }
-            t = end;
-        }
-        constituent_masses(atm, ray, prev, b, std::span<double>(dm, nc));
-        for (std::size_t i = 0; i < nc; ++i) acc[i] += dm[i];
-    }
+    double acc[kMaxConstituents] = {};  // view masses from a
+    if (!in.empty() && b > a)
+        march_view_ray(atm, [&](auto&& node) { box_panels(ctx, ray, o, v, a, b, acc, node); }, BoxSun{ctx, o, v},
+                       phase_value, [&](std::size_t) { return SpectrumView<double>(out.first(nw)); });
     SpectrumView<double>(out.first(nw)) *= atm.sun_irradiance;
 
     // The ground (the whole planet, not cut to the box), seen through the box's medium.
@@ -282,17 +296,12 @@ void box_radiance(const BoxContext& ctx, const PlanetRay<double>& ray, const glm
         const glm::dvec3 n = glm::normalize(g - ctx.centre);
         const double mu_g = std::clamp(glm::dot(n, ctx.sun), -1.0, 1.0);
         if (mu_g > 0.0) {
-            const PlanetRay<double> sun_ray{atm.planet_radius_m, 0.0, ZenithAngle<double>::from_cos(mu_g)};
-            const Interval sin = intersect_box(ctx.box, g, ctx.sun);
-            const double sa = std::max(sin.t0, 0.0);
-            if (sin.empty() || !(sin.t1 > sa)) std::fill(ms, ms + nc, 0.0);
-            else constituent_masses(atm, sun_ray, sa, sin.t1, std::span<double>(ms, nc));
-            optical_depth_into(tau);
-            exp_neg(tau);
-            assign(sigma_s, atm.sun_irradiance);  // reused: E_sun a/π μ_g
-            sigma_s.view() *= atm.ground_albedo / kPi;
-            sigma_s.view() *= mu_g;
-            add_product(out.first(nw), sigma_s, tau);
+            double ms[kMaxConstituents];
+            BoxSun{ctx, o, v}.ground(g, mu_g, ms);
+            SpectrumScratch<double> T_view(nw);
+            optical_depth_of(atm, acc, T_view);
+            exp_neg(T_view);
+            add_ground(atm, mu_g, ms, T_view.view(), out.first(nw));
         }
     }
 }

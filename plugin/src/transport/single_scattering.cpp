@@ -23,6 +23,7 @@ namespace airmass {
 // The implementation, once for baseline x86-64 and once for AVX2/FMA (airmass/simd.hpp).
 namespace {
 namespace baseline {
+#include "view_march.inc"
 #include "single_scattering_kernels.inc"
 }  // namespace baseline
 }  // namespace
@@ -31,6 +32,7 @@ namespace baseline {
 #pragma GCC target("avx2,fma")
 namespace {
 namespace avx2_fma {
+#include "view_march.inc"
 #include "single_scattering_kernels.inc"
 }  // namespace avx2_fma
 }  // namespace
