@@ -132,12 +132,16 @@ def test_interrupted_compare_kills_povray(airmass_bin, tmp_path):
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
     def ours():
-        """POV-Ray processes whose working directory is this run's folder."""
+        """POV-Ray processes whose working directory is this run's folder, or the staging
+        folder beside it that compare writes into until it publishes the set
+        (<parent>/.<name>.airmass-stage-<pid>, docs/reliability.md)."""
+        stage = os.path.join(str(tmp_path.parent), "." + tmp_path.name + ".airmass-stage-")
         found = []
         for pid in os.listdir("/proc"):
             if pid.isdigit():
                 try:
-                    if (os.readlink(f"/proc/{pid}/cwd") == str(tmp_path)
+                    cwd = os.readlink(f"/proc/{pid}/cwd")
+                    if ((cwd == str(tmp_path) or cwd.startswith(stage))
                             and open(f"/proc/{pid}/comm").read().strip() == "povray"):
                         found.append(int(pid))
                 except OSError:
