@@ -32,7 +32,6 @@ namespace airmass {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using detail::all_finite;
