@@ -58,6 +58,7 @@ struct RenderOptions {
     std::optional<double> sun_elevation_deg, sun_rotation_deg;
     int threads = 0;
     bool quiet = false;
+    std::string exr_compression = exr_compression_name(kDefaultExrCompression);
     render_detail::CameraOverrides camera;
 };
 
@@ -291,6 +292,10 @@ void add_render_command(CLI::App& app) {
                     "(a VDB 'box' export)");
     add_sun_overrides(cmd, o->sun_elevation_deg, o->sun_rotation_deg);
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
+    cmd->add_option("--exr-compression", o->exr_compression,
+                    "none, zip or piz (all lossless; none writes fastest: docs/sky.md)")
+        ->check(CLI::IsMember({"none", "zip", "piz"}))
+        ->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     add_camera_options(cmd, o->camera);
 
@@ -337,7 +342,8 @@ void add_render_command(CLI::App& app) {
         if (cancel.requested()) throw Cancelled("render: cancelled; no file written");
         ImageMetadata meta = render_metadata(scene, settings);
         meta.emplace_back("airmass:render_seconds", std::to_string(seconds));
-        write_exr_atomic(o->output, image, meta, &cancel);  // Ctrl-C until the rename: no file
+        // Ctrl-C until the rename: no file.
+        write_exr_atomic(o->output, image, meta, &cancel, exr_compression_from_name(o->exr_compression));
         if (!o->quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %s, %.3f s)\n", o->output.c_str(), image.width, image.height,
                          settings.color == ColorModel::spectral ? "spectral" : "renderer RGB", seconds);

@@ -56,6 +56,7 @@ struct SkyOptions {
     std::string basis;  // "", "rgb", "spectral"
     std::string wavelengths;
     std::string hemisphere = "full";
+    std::string exr_compression = exr_compression_name(kDefaultExrCompression);
     int threads = 0;
     int grid = -1;
     bool quiet = false;
@@ -314,7 +315,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
         const std::string shown = format_utc(f.time);  // YYYY-MM-DDThh:mm:ss[.fff]Z
         metadata.emplace_back("DateTime", shown.substr(0, 4) + ":" + shown.substr(5, 2) + ":" + shown.substr(8, 2) +
                                               " " + shown.substr(11, 8));
-        write_exr_atomic(f.path, image, metadata, &cancel);
+        write_exr_atomic(f.path, image, metadata, &cancel, exr_compression_from_name(o.exr_compression));
         const SunLight light = sun_light_at_observer(scene, settings.chapman);
         const glm::dvec3 colour = light.lamp_colour();
         csv += std::to_string(f.number) + "," + format_utc(f.time) + "," + format_place(lat) + "," +
@@ -378,6 +379,10 @@ void add_sky_command(CLI::App& app) {
                     "Multiple scattering on a sun-aligned grid of this many azimuth intervals, interpolated, in "
                     "[2, 16384] (0: integrated along every ray)")
         ->check(int_in(0, kSkyMaxGrid))
+        ->capture_default_str();
+    cmd->add_option("--exr-compression", o->exr_compression,
+                    "none, zip or piz (all lossless; none writes fastest: docs/sky.md)")
+        ->check(CLI::IsMember({"none", "zip", "piz"}))
         ->capture_default_str();
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar or summary line");
     cmd->add_option("--time-range", o->time_range,
@@ -450,7 +455,8 @@ void add_sky_command(CLI::App& app) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         // A cancel up to the rename keeps the previous file (write_exr_atomic discards its temporary).
         if (cancel.requested()) throw Cancelled("sky: cancelled; no file written");
-        write_exr_atomic(o->output, image, sky_metadata(scene, settings), &cancel);
+        write_exr_atomic(o->output, image, sky_metadata(scene, settings), &cancel,
+                         exr_compression_from_name(o->exr_compression));
         if (!o->quiet)
             std::fprintf(stderr, "sky: wrote %s (%dx%d, %s, %s, %.4f s render)\n", o->output.c_str(),
                          settings.width, settings.height,

@@ -151,6 +151,31 @@ def test_table_cache_unwritable_folder_is_no_error(airmass_bin, tmp_path):
     assert (tmp_path / "a.exr").stat().st_size > 0
 
 
+def test_exr_compression_changes_the_file_not_the_pixels(airmass_bin, tmp_path):
+    """--exr-compression (sky and render): none (the default), zip and piz give the same pixels;
+    a bad value is refused with the allowed ones named and nothing written."""
+    import numpy as np
+    import OpenImageIO as oiio
+
+    cache = tmp_path / "cache"
+    _sky(airmass_bin, cache, tmp_path / "default.exr")
+    pixels = {}
+    for c in ("none", "zip", "piz"):
+        _sky(airmass_bin, cache, tmp_path / ("%s.exr" % c), "--exr-compression", c)
+        inp = oiio.ImageInput.open(str(tmp_path / ("%s.exr" % c)))
+        assert inp.spec().get_string_attribute("compression") == c, inp.spec().get_string_attribute("compression")
+        pixels[c] = np.asarray(inp.read_image("float"))
+        inp.close()
+    assert (tmp_path / "default.exr").read_bytes() == (tmp_path / "none.exr").read_bytes()
+    assert np.array_equal(pixels["none"], pixels["zip"]) and np.array_equal(pixels["none"], pixels["piz"])
+    assert (tmp_path / "zip.exr").stat().st_size < (tmp_path / "none.exr").stat().st_size
+    for cmd in (["sky", "--preset", "earth"], ["render", "--preset", "earth"]):
+        r = subprocess.run([str(airmass_bin), *cmd, "--exr-compression", "zip9", "-o", str(tmp_path / "bad.exr")],
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and "--exr-compression: zip9 not in {none,zip,piz}" in r.stderr, r.stderr
+        assert not (tmp_path / "bad.exr").exists()
+
+
 # ---- compare ends its Blender child ------------------------------------------------------------------
 
 def _alive(pid):
