@@ -26,7 +26,7 @@ extern const char* const kSourceDigest;
 namespace {
 
 constexpr char kMagic[8] = {'A', 'M', 'S', 'T', 'B', 'L', 0, 0};
-constexpr std::uint32_t kFormat = 1;
+constexpr std::uint32_t kFormat = 2;  // 2: MsOrderInfo::tail_corrected_change
 constexpr std::uint32_t kByteOrderMark = 0x01020304u;
 
 class Writer {
@@ -181,6 +181,7 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
         p.put(o.order);
         p.put_vector(o.relative);
         p.put(o.max_relative);
+        p.put(o.tail_corrected_change);
     }
     p.put(ms.highest_order);
     p.put(static_cast<std::uint8_t>(ms.tail_added));
@@ -225,7 +226,7 @@ std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> 
               order_count <= 100000;
     for (std::uint64_t k = 0; ok && k < order_count; ++k) {
         MsOrderInfo o;
-        ok = p.get(o.order) && p.get_vector(o.relative) && p.get(o.max_relative);
+        ok = p.get(o.order) && p.get_vector(o.relative) && p.get(o.max_relative) && p.get(o.tail_corrected_change);
         ms.orders.push_back(std::move(o));
     }
     ok = ok && p.get(ms.highest_order) && p.get(tail) && p.get_vector(ms.tail_ratio) &&
