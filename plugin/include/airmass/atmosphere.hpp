@@ -25,8 +25,9 @@ namespace airmass {
 struct EvalSettings {
     // Chapman method for exponential constituents (sun rays and view segments).
     ChapmanMethod chapman = ChapmanMethod::airmass;
-    // Samples per scattering constituent along each view ray (midpoint rule in that
-    // constituent's sampling variable; single_scattering.hpp). ≥ 1.
+    // Samples per scattering constituent along each view ray (Gauss–Legendre nodes in that
+    // constituent's sampling variable; single_scattering.hpp). ≥ 1. After compile_atmosphere,
+    // change it with set_view_samples (which refreshes Atmosphere::view_rule).
     int view_samples = 16;
     // Add the solar disc (uniform radiance E_sun / Ω_sun, Ω_sun = 2π(1 − cos α)) to view
     // rays that point into it and reach space.
@@ -78,6 +79,11 @@ struct Atmosphere {
     // Derived by compile_atmosphere for the hot loops: extinction_per_m of every
     // constituent, wavelength-major: [w * constituents.size() + i].
     std::vector<double> extinction_matrix;
+    // Derived: the view-ray quadrature of settings.view_samples nodes on [0, 1] as (node,
+    // weight) pairs — Gauss–Legendre (panels of ≤ 16 beyond 16; single_scattering.hpp). Change
+    // view_samples with set_view_samples, which refreshes it; a rule of another size is not
+    // used (the single-scattering kernels then make the right one per call, correct but slower).
+    std::vector<double> view_rule;
 
     std::size_t wavelength_count() const { return wavelengths_nm.size(); }
 };
@@ -90,6 +96,10 @@ inline constexpr std::size_t kMaxConstituents = 16;
 // for bad wavelengths or settings, naming the field, value and allowed range.
 Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavelengths_nm,
                               const EvalSettings& settings = {});
+
+// settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it)
+// with its quadrature rule (view_rule).
+void set_view_samples(Atmosphere& atmosphere, int view_samples);
 
 // Replace the sun's top-of-atmosphere irradiance by a constant (W m⁻² nm⁻¹), e.g. 1 for
 // radiance per unit irradiance.

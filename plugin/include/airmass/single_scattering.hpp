@@ -14,7 +14,8 @@
 // the other constituents (phase.hpp is_rayleigh_like); radiance = both + ground + disc.
 //
 // Integration: each scattering constituent i gets its own `view_samples` points,
-// placed by the midpoint rule in a sampling variable in which rho_i(t)·T(t) is close
+// placed as Gauss–Legendre nodes (panels of ≤ 16 beyond 16; Atmosphere::view_rule; the
+// midpoint rule until 2026-12-03) in a sampling variable in which rho_i(t)·T(t) is close
 // to constant: an exponential in |t − t_d| around the densest point t_d of the
 // segment (the periapsis, or the lower end), with decay length ℓ = the distance over
 // which the ray climbs one scale height from t_d, shortened by the extinction there;

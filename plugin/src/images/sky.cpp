@@ -586,7 +586,7 @@ FloatImage SkySession::render(const glm::dvec3& sun, double altitude_m, const Sk
     // The per-render evaluator: the session's atmosphere with this render's view samples, the
     // session's tables shared (no copy, no precompute).
     Atmosphere atm = s.atmosphere;
-    atm.settings.view_samples = settings.view_samples;
+    set_view_samples(atm, settings.view_samples);
     const Evaluator evaluator = s.tables ? Evaluator(std::move(atm), s.tables, settings.multiple_samples)
                                          : Evaluator(std::move(atm));
     return render_frame(FrameContext{evaluator, s.to_rgb, sun, altitude_m}, settings, hooks);

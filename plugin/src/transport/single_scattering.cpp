@@ -17,6 +17,7 @@
 #include "airmass/phase.hpp"
 #include "airmass/simd.hpp"
 #include "airmass/spectrum.hpp"
+#include "math/quadrature.hpp"
 
 namespace airmass {
 

@@ -1,0 +1,19 @@
+// Gauss–Legendre rules on [0, 1] (the view-ray quadrature of single scattering).
+#pragma once
+
+#include <vector>
+
+namespace airmass {
+
+// The largest Gauss–Legendre rule used whole; more nodes are split into panels.
+inline constexpr int kMaxGaussPanelNodes = 16;
+
+// n ≥ 1 nodes on [0, 1] as interleaved (node, weight) pairs, nodes increasing, weights summing
+// to 1. n ≤ kMaxGaussPanelNodes: the n-point Gauss–Legendre rule (exact for polynomials of degree
+// 2n − 1). Larger n: ⌈n/16⌉ panels whose node counts differ by at most one, each as wide as its
+// share of the nodes (so the node density stays even) and each its own Gauss–Legendre rule — the
+// work stays O(n) and the error falls as the 2p-th power of the panel width (p ≥ 8 points).
+// Throws std::invalid_argument for n < 1.
+std::vector<double> unit_gauss_legendre(int n);
+
+}  // namespace airmass
