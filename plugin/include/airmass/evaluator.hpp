@@ -47,7 +47,7 @@ struct MultipleScatteringOptions {
 // Multiple scattering as one observer sees it: the tables' radiance integrated along the rays
 // of a coarse sun-aligned grid of view directions (sky_grid.hpp; `intervals` azimuth steps
 // over 0–180° and intervals/2 + 1 zenith rows above and below the horizon) and interpolated
-// bilinearly for any direction. Multiply-scattered light varies slowly with direction, so a
+// (Catmull–Rom, sky_grid.hpp; clamped at 0) for any direction. Multiply-scattered light varies slowly with direction, so a
 // few hundred rays stand for a whole sky image's tens of thousands. Built by
 // Evaluator::ms_view for one altitude and sun; its error and cost against per-ray
 // integration are measured by `bench/sky_vs_blender.sh` (docs/sky.md).

@@ -90,7 +90,7 @@ struct SkySettings {
     int threads = 0;  // 0: all hardware threads
     // Sky grid (Blender's precomputed-texture idea, with its error measured by
     // `airmass report sky`): evaluate the sky on a grid over (view zenith angle, azimuth
-    // from the sun) and interpolate every pixel bilinearly from it. By mirror symmetry the
+    // from the sun) and interpolate every pixel from it (Catmull–Rom, sky_grid.hpp). By mirror symmetry the
     // azimuth spans [0°, 180°] in `grid` intervals; the zenith angle has two pieces split
     // exactly at the horizon (sky / ground, never interpolated across), each grid/2
     // intervals, denser toward the horizon. 0: evaluate every pixel. −1 (auto): the grid
@@ -113,7 +113,7 @@ struct SkySettings {
     int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
-inline constexpr int kSkyDefaultGrid = 128;
+inline constexpr int kSkyDefaultGrid = 96;
 inline constexpr int kSkyMaxGrid = 16384;
 
 // Limits checked by validate(SkySettings).

@@ -9,6 +9,12 @@
 // spherically symmetric atmosphere is mirror-symmetric about the vertical plane through the
 // sun). Each node holds `channels` values (RGB for the image, one per wavelength for the
 // multiple-scattering view).
+//
+// Interpolation is Catmull–Rom (cubic, C¹) in both grid coordinates: columns mirror at ψ = 0
+// and π (the sky's own symmetry, so the stencil there is exact), rows stay inside their piece
+// with the node missing beyond a piece's end extrapolated linearly (v₋₁ = 2v₀ − v₁). Against
+// bilinear it takes the grid's p95 error down 5–7× at the same grid (docs/sky.md); a cubic may
+// overshoot below 0 next to a sharp feature, so callers clamp what must not be negative.
 #pragma once
 
 #include <algorithm>
@@ -127,11 +133,80 @@ struct SkyGrid {
         c0 = std::min(static_cast<int>(fc), intervals - 1);
         wc = fc - c0;
     }
+    // Catmull–Rom weights at t ∈ [0, 1] for the nodes −1, 0, 1, 2.
+    static void catmull_rom(double t, double w[4]) {
+        const double t2 = t * t, t3 = t2 * t;
+        w[0] = 0.5 * (-t3 + 2.0 * t2 - t);
+        w[1] = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0);
+        w[2] = 0.5 * (-3.0 * t3 + 4.0 * t2 + t);
+        w[3] = 0.5 * (t3 - t2);
+    }
+    // The 4 rows and weights of a cell's row part, inside its piece.
+    void row_stencil(const Cell& c, int rows_out[4], double w[4]) const {
+        if (c.r1 == c.r0) {  // on a piece's last row
+            for (int k = 0; k < 4; ++k) rows_out[k] = c.r0, w[k] = k == 1 ? 1.0 : 0.0;
+            return;
+        }
+        const int lo = c.r0 < rows_sky ? 0 : rows_sky, hi = c.r0 < rows_sky ? rows_sky - 1 : rows() - 1;
+        catmull_rom(c.wr, w);
+        for (int k = 0; k < 4; ++k) rows_out[k] = std::clamp(c.r0 - 1 + k, lo, hi);
+        if (c.r0 - 1 < lo) {  // w₀ v₋₁ = w₀ (2 v₀ − v₁)
+            w[1] += 2.0 * w[0];
+            w[2] -= w[0];
+            w[0] = 0.0;
+        }
+        if (c.r0 + 2 > hi) {  // w₃ v₂ = w₃ (2 v₁ − v₀)
+            w[2] += 2.0 * w[3];
+            w[1] -= w[3];
+            w[3] = 0.0;
+        }
+    }
+    // The 4 columns and weights of a column part (column()), mirrored at ψ = 0 and π.
+    void column_stencil(int c0, double wc, int cols[4], double w[4]) const {
+        catmull_rom(wc, w);
+        for (int k = 0; k < 4; ++k) {
+            int j = c0 - 1 + k;
+            if (j < 0) j = -j;
+            if (j > intervals) j = 2 * intervals - j;
+            cols[k] = std::clamp(j, 0, intervals);
+        }
+    }
+    // The row part of a cell blended for every column at once: line[j · channels + ch]
+    // (line.size() == columns() · channels). An image row shares it; each pixel then needs
+    // only its column stencil (interpolate_line).
+    void blend_row(const Cell& c, std::span<double> line) const {
+        int rr[4];
+        double wr[4];
+        row_stencil(c, rr, wr);
+        const std::size_t n = std::size_t(columns()) * channels;
+        std::fill(line.begin(), line.begin() + std::ptrdiff_t(n), 0.0);
+        for (int a = 0; a < 4; ++a) {
+            if (wr[a] == 0.0) continue;
+            const double* v = at(rr[a], 0);
+            for (std::size_t x = 0; x < n; ++x) line[x] += wr[a] * v[x];
+        }
+    }
+    void interpolate_line(std::span<const double> line, const int cols[4], const double w[4],
+                          std::span<double> out) const {
+        for (int ch = 0; ch < channels; ++ch)
+            out[ch] = w[0] * line[std::size_t(cols[0]) * channels + ch] + w[1] * line[std::size_t(cols[1]) * channels + ch] +
+                      w[2] * line[std::size_t(cols[2]) * channels + ch] + w[3] * line[std::size_t(cols[3]) * channels + ch];
+    }
     // The interpolated values of a cell (out.size() == channels).
     void interpolate(const Cell& c, std::span<double> out) const {
-        const double *a = at(c.r0, c.c0), *b = at(c.r0, c.c0 + 1), *d = at(c.r1, c.c0), *e = at(c.r1, c.c0 + 1);
-        for (int ch = 0; ch < channels; ++ch)
-            out[ch] = (1 - c.wr) * ((1 - c.wc) * a[ch] + c.wc * b[ch]) + c.wr * ((1 - c.wc) * d[ch] + c.wc * e[ch]);
+        int rr[4], cc[4];
+        double wr[4], wc[4];
+        row_stencil(c, rr, wr);
+        column_stencil(c.c0, c.wc, cc, wc);
+        std::fill(out.begin(), out.begin() + channels, 0.0);
+        for (int a = 0; a < 4; ++a) {
+            if (wr[a] == 0.0) continue;
+            for (int b = 0; b < 4; ++b) {
+                const double w = wr[a] * wc[b];
+                const double* v = at(rr[a], cc[b]);
+                for (int ch = 0; ch < channels; ++ch) out[ch] += w * v[ch];
+            }
+        }
     }
 };
 

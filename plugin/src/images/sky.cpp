@@ -458,13 +458,21 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             for (std::size_t y = rb; y < re; ++y)
                 row_transmittance[y] = mean_transmittance(s.transmittance.data() + (y - rb) * nw);
         });
-        // Every image column's azimuth cell (the same in every row).
-        std::vector<int> column_c0(std::size_t(W), 0);
-        std::vector<double> column_wc(std::size_t(W), 0.0);
-        for (int x = 0; x < W; ++x)
-            grid.column(kPi - kTwoPi * (x + 0.5) / W, column_c0[std::size_t(x)], column_wc[std::size_t(x)]);
+        // Every image column's column stencil (the same in every row).
+        struct ColumnStencil {
+            int cols[4];
+            double w[4];
+        };
+        std::vector<ColumnStencil> stencils(static_cast<std::size_t>(W));
+        for (int x = 0; x < W; ++x) {
+            int c0;
+            double wc;
+            grid.column(kPi - kTwoPi * (x + 0.5) / W, c0, wc);
+            grid.column_stencil(c0, wc, stencils[std::size_t(x)].cols, stencils[std::size_t(x)].w);
+        }
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
+                std::vector<double> line(std::size_t(grid.columns()) * 6);
                 for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
@@ -472,15 +480,16 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                         const double T = row_transmittance[std::size_t(y)];
                         SkyGrid::Cell cell;
                         double v[6];
-                        // The row part of the cell once per row, the column part from the table.
-                        const bool in_atmosphere = grid.cell(theta, grid.sun_phi, cell);
-                        for (int x = 0; x < W && in_atmosphere; ++x) {
-                            cell.c0 = column_c0[std::size_t(x)];
-                            cell.wc = column_wc[std::size_t(x)];
-                            grid.interpolate(cell, v);
-                            float* px = image.at(x, y);
-                            for (int ch = 0; ch < 3; ++ch)
-                                px[ch] = static_cast<float>(std::max(v[ch] * (1.0 - T) + v[3 + ch] * T, 0.0));
+                        // The row part blended once per image row, then each pixel's column stencil.
+                        if (grid.cell(theta, grid.sun_phi, cell)) {
+                            grid.blend_row(cell, line);
+                            for (int x = 0; x < W; ++x) {
+                                const ColumnStencil& cs = stencils[std::size_t(x)];
+                                grid.interpolate_line(line, cs.cols, cs.w, v);
+                                float* px = image.at(x, y);
+                                for (int ch = 0; ch < 3; ++ch)
+                                    px[ch] = static_cast<float>(std::max(v[ch] * (1.0 - T) + v[3 + ch] * T, 0.0));
+                            }
                         }
                     }
                     report(1);

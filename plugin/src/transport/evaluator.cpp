@@ -116,6 +116,7 @@ void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double>
         v = heap.data();
     }
     grid.interpolate(cell, std::span<double>(v, 2 * nw));
+    for (std::size_t w = 0; w < 2 * nw; ++w) v[w] = std::max(v[w], 0.0);  // a cubic's overshoot is no light
     for (std::size_t w = 0; w < nw; ++w) out[w] = v[w] * (1.0 - T[w]) + v[nw + w] * T[w];
     for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = v[w] * (1.0 - T[w]);
 }
