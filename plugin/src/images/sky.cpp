@@ -391,7 +391,19 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m);
     const int G = grid_for(ctx.sun, settings);
     SkyGrid grid;
-    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
+    // A grid or view too large for the memory: SkyError naming the setting (not std::bad_alloc).
+    const auto too_large = [](const char* field, int n, double values) {
+        return SkyError(std::string(field) + " = " + std::to_string(n) + ": the grid needs " +
+                        std::to_string(values * 8.0 / 1e9) + " GB, more memory than is available; use a smaller " +
+                        field);
+    };
+    if (G > 0) {
+        try {
+            grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
+        } catch (const std::bad_alloc&) {
+            throw too_large("grid", G, grid_rays(G, upper) * 6.0);
+        }
+    }
     const int grid_rows = grid.rows();
     const std::size_t total_work = frame_work(settings, G, hz);
     auto report = [&](std::size_t n) {
@@ -418,7 +430,11 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     // Multiple scattering interpolated from the observer's view (MsView) unless asked per ray.
     std::optional<MsView> view;
     if (const int M = ms_grid_for(ctx.sun, settings); ctx.evaluator.tables() && M > 0)
-        view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), M, threads, hooks);
+        try {
+            view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), M, threads, hooks);
+        } catch (const std::bad_alloc&) {
+            throw too_large("multiple_grid", M, grid_rays(M, false) * 2.0 * double(nw));
+        }
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate = [&](Scratch& s, std::size_t n) {
         ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
