@@ -357,11 +357,13 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
     scene.sun.azimuth_deg = 33.0;  // not on a pixel-mirror axis
     for (double alt : {0.0, 10e3, 400e3}) {
         scene.observer.altitude_m = alt;
-        SkySettings s = small(256, 128);
+        // 512 × 256: more pixels than the grid's 257 × 258 nodes, so the grid is used.
+        SkySettings s = small(512, 256);
         s.sun_disc = false;
         s.grid = 0;
         const FloatImage exact = render_sky(scene, s);
         s.grid = 256;
+        ASSERT_EQ(effective_sky_grid(scene, s), 256);
         const FloatImage grid = render_sky(scene, s);
         std::vector<double> errs;
         double worst = 0;
@@ -386,6 +388,84 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
         EXPECT_LT(errs[errs.size() * 95 / 100], 0.002) << "alt " << alt;
         EXPECT_LT(worst, 0.01) << "alt " << alt;
     }
+}
+
+TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
+    // A grid (or a multiple-scattering view) is used only when it has fewer rays than the
+    // render evaluates; otherwise the render is, value for value, the grid-0 render (sky.hpp).
+    Scene scene = earth();
+    use_rgb(scene);
+    scene.sun.elevation_deg = 20.0;
+    scene.sun.azimuth_deg = 33.0;  // no pixel mirror: every pixel of the region is a ray
+    SkySettings s = small(16, 8);  // 128 rays
+    const auto same = [](const FloatImage& a, const FloatImage& b) {
+        if (a.pixels.size() != b.pixels.size()) return false;
+        for (std::size_t i = 0; i < a.pixels.size(); ++i)
+            if (a.pixels[i] != b.pixels[i]) return false;
+        return true;
+    };
+    s.grid = 0;
+    const FloatImage every = render_sky(scene, s);
+    for (int g : {16384, 16383, 64, 8}) {  // 8: 9 × 5 × 2 = 90 nodes < 128 pixels
+        s.grid = g;
+        const int want = g == 8 ? 8 : 0;
+        EXPECT_EQ(effective_sky_grid(scene, s), want) << "grid " << g;
+        if (g >= 64) {
+            EXPECT_TRUE(same(render_sky(scene, s), every)) << "grid " << g;
+        }
+    }
+    s.grid = 8;
+    EXPECT_FALSE(same(render_sky(scene, s), every));  // the grid is used: interpolated pixels differ
+    // The boundary: grid 4 has 5 × 3 × 2 = 30 nodes; a 15 × 2 image 30 pixel rays (every pixel),
+    // 16 × 2 has 32 (the grid). The upper hemisphere halves the grid's nodes (sky rows only) and
+    // the image's rows.
+    s.grid = 4;
+    s.width = 15, s.height = 2;
+    EXPECT_EQ(effective_sky_grid(scene, s), 0);
+    s.width = 16;
+    EXPECT_EQ(effective_sky_grid(scene, s), 4);
+    s.region = SkyRegion::upper;  // 16 × 1 rows against 15 nodes
+    EXPECT_EQ(effective_sky_grid(scene, s), 4);
+    s.width = 15;
+    EXPECT_EQ(effective_sky_grid(scene, s), 0);
+    s.region = SkyRegion::full;
+    // The default (auto, 128: 16 770 nodes) on a 2048 × 1024 image, and every pixel at 128 × 64.
+    s.grid = -1;
+    s.width = 2048, s.height = 1024;
+    EXPECT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
+    s.width = 128, s.height = 64;
+    EXPECT_EQ(effective_sky_grid(scene, s), 0);
+
+    // The multiple-scattering view likewise, against the rays the render evaluates.
+    s = small(16, 8);
+    s.multiple_scattering = true;
+    s.multiple.table = {6, 16, 12, 4};  // small tables: the check is the path, not accuracy
+    const MultipleScattering tables = sky_multiple_scattering(scene, s);
+    s.grid = 0;
+    s.multiple_grid = 0;
+    const FloatImage per_ray = render_sky(scene, s, {}, &tables);
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0);
+    for (int m : {16384, 16383, kSkyDefaultMultipleGrid}) {  // 32: 33 × 34 = 1 122 rays > 128
+        s.multiple_grid = m;
+        EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0) << "ms grid " << m;
+        EXPECT_TRUE(same(render_sky(scene, s, {}, &tables), per_ray)) << "ms grid " << m;
+    }
+    s.multiple_grid = 2;  // 3 × 2 × 3 = 18 rays < 128 pixels: the view is used
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), 2);
+    EXPECT_FALSE(same(render_sky(scene, s, {}, &tables), per_ray));
+    // With the sky grid in use, against its nodes: 64 × 32 (2 048 pixels), grid 16 (17 × 18 =
+    // 306 nodes): a view of 8 (9 × 10 = 90 rays) is used, the default 32 (1 122) is not.
+    s.width = 64, s.height = 32;
+    s.grid = 16;
+    ASSERT_EQ(effective_sky_grid(scene, s), 16);
+    s.multiple_grid = 8;
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), 8);
+    s.multiple_grid = kSkyDefaultMultipleGrid;
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0);
+    s.grid = 0;  // the 2 048 pixels: the default view is used
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), kSkyDefaultMultipleGrid);
+    s.multiple_scattering = false;
+    EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0);
 }
 
 // ---- files -------------------------------------------------------------------------------

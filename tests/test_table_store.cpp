@@ -59,6 +59,7 @@ void expect_same_tables(const MultipleScattering& a, const MultipleScattering& b
     EXPECT_EQ(a.ground_irradiance, b.ground_irradiance);
     EXPECT_EQ(a.highest_order, b.highest_order);
     EXPECT_EQ(a.tail_added, b.tail_added);
+    EXPECT_EQ(a.repeats_after_order, b.repeats_after_order);
     EXPECT_EQ(a.tail_ratio, b.tail_ratio);
     ASSERT_EQ(a.orders.size(), b.orders.size());
     for (std::size_t k = 0; k < a.orders.size(); ++k) EXPECT_EQ(a.orders[k].relative, b.orders[k].relative);

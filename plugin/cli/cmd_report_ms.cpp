@@ -283,7 +283,7 @@ void run_report(const Options& o) {
         s.threads = o.threads;
         s.cancel = &cancel;
         double seconds48 = 0.0, cpu48 = 0.0, mb48 = 0.0, seconds3 = 0.0;
-        int orders = 1;
+        int orders = 1, repeats_after = 0;
         bool tail = false;
         MultipleScattering ms;
         if (!cfg.single_only) {
@@ -293,6 +293,7 @@ void run_report(const Options& o) {
                 cpu48 = process_cpu_seconds() - cpu0;
                 seconds48 = big.precompute_seconds;
                 orders = big.highest_order;
+                repeats_after = big.repeats_after_order;
                 tail = big.tail_added;
                 mb48 = double(big.table_bytes()) / (1024.0 * 1024.0);
             }
@@ -300,6 +301,7 @@ void run_report(const Options& o) {
             seconds3 = ms.precompute_seconds;
             if (o.quick) {
                 orders = ms.highest_order;
+                repeats_after = ms.repeats_after_order;
                 tail = ms.tail_added;
             }
         }
@@ -339,7 +341,13 @@ void run_report(const Options& o) {
         const std::string orders_text = cfg.single_only ? "1"
                                         : s.mode == MsMode::isotropic_lut ? "∞ (series)"
                                                                           : std::to_string(orders) +
-                                                                                (tail ? " + tail" : "");
+                                                                                (tail ? " + tail" : "") +
+                                                                                (repeats_after > 0
+                                                                                     ? " (orders after " +
+                                                                                           std::to_string(repeats_after) +
+                                                                                           " repeat it: added, not "
+                                                                                           "recomputed)"
+                                                                                     : "");
         md << "| " << cfg.group << " | " << cfg.name << " | "
            << (cfg.single_only ? std::string("—")
                : o.quick       ? std::string("(--quick)")

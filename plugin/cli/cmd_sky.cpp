@@ -369,7 +369,8 @@ void add_sky_command(CLI::App& app) {
         ->check(CLI::IsMember({"full", "upper"}))
         ->capture_default_str();
     cmd->add_option("--grid", o->grid,
-                    "Sky grid: azimuth intervals over 0-180 deg, pixels interpolated, in [4, 16384] (0: every pixel, -1: auto)")
+                    "Sky grid: azimuth intervals over 0-180 deg, pixels interpolated, in [4, 16384] (0: every pixel, -1: auto "
+                    "= 128); every pixel when the grid has as many nodes as the image has rays to evaluate")
         ->check(int_in(-1, kSkyMaxGrid))  // and not 1-3: validate(SkySettings)
         ->capture_default_str();
     cmd->add_option("--threads", o->threads, "Worker threads (0: all)")->check(int_in(0, 4096))->capture_default_str();
@@ -377,7 +378,7 @@ void add_sky_command(CLI::App& app) {
     add_ms_options(cmd, o->ms, kSkyMaxMultipleSamples);
     cmd->add_option("--ms-grid", o->ms_grid,
                     "Multiple scattering on a sun-aligned grid of this many azimuth intervals, interpolated, in "
-                    "[2, 16384] (0: integrated along every ray)")
+                    "[2, 16384] (0: integrated along every ray, as when the grid has as many rays as the image evaluates)")
         ->check(int_in(0, kSkyMaxGrid))
         ->capture_default_str();
     cmd->add_option("--exr-compression", o->exr_compression,

@@ -17,6 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <time.h>
+
 #include "airmass/airmass_c.h"
 
 static int passed = 0, failed = 0;
@@ -46,6 +48,12 @@ static int32_t on_progress(void* user, double fraction) {
 }
 static int32_t cancel_at_once(void* user, double fraction) {
     (void)user, (void)fraction;
+    return 1;
+}
+static int cancel_calls = 0;
+static int32_t count_and_cancel(void* user, double fraction) {
+    (void)user, (void)fraction;
+    ++cancel_calls;
     return 1;
 }
 
@@ -309,6 +317,38 @@ int main(int argc, char** argv) {
                                : -1;
         check(s2 == AIRMASS_CANCELLED || s2 == AIRMASS_OK, "a progress callback returning 1 stops the render", msg);
         free(buf);
+    }
+
+    /* ---- a long VDB plan (a 2000 x 2000 x 20 km box at 0.5 km voxels, 3.2e8 voxels: 11 s of
+     * sampling on 2 threads when not cancelled; the first report comes after 50 ms) cancelled by the
+     * progress callback at its first report: AIRMASS_CANCELLED, no plan, and no report after the
+     * one that cancelled (the final 1.0 is not sent). Not under --quick; only where the library
+     * has the volume functions. ---- */
+    if (!quick && airmass_has_vdb()) {
+        airmass_scene_spec vs;
+        vs.struct_size = sizeof vs;
+        airmass_scene_spec_init(&vs);
+        vs.preset = "earth";
+        airmass_vdb_options vo;
+        vo.struct_size = sizeof vo;
+        airmass_vdb_options_init(&vo);
+        const double box[6] = {-1000.0, -1000.0, 0.0, 1000.0, 1000.0, 20.0};
+        vo.region = "box";
+        memcpy(vo.box, box, sizeof box);
+        vo.voxel_size = 0.5;
+        vo.max_dense_mb = 1e9;
+        airmass_job job;
+        memset(&job, 0, sizeof job);
+        job.struct_size = sizeof job;
+        job.progress = count_and_cancel;
+        char* plan = NULL;
+        const clock_t t0 = clock();
+        const int32_t s = airmass_vdb_plan(&vs, &vo, NULL, &job, &plan, msg, sizeof msg);
+        snprintf(detail, sizeof detail, "status %d (%s), plan %s, %d progress calls, %.2f s CPU", (int)s, msg,
+                 plan ? "returned" : "NULL", cancel_calls, (double)(clock() - t0) / CLOCKS_PER_SEC);
+        check(s == AIRMASS_CANCELLED && plan == NULL && cancel_calls == 1,
+              "a long VDB plan cancelled at its first progress report: cancelled, no plan, no later report", detail);
+        if (plan) airmass_string_free(plan);
     }
 
     /* ---- the sun lamp ---- */

@@ -131,6 +131,10 @@ struct MsSettings {
     int threads = 0;  // 0: all hardware threads
     // Keep Σ_k L^k on the grid (diagnostics: flux balance). Costs one more table.
     bool keep_radiance = false;
+    // Orders that repeat the previous one bit for bit (MultipleScattering::repeats_after_order)
+    // are added without being recomputed; false computes every order (the same values, slower:
+    // the check that they are the same).
+    bool skip_repeated_orders = true;
     // Called from the calling thread between stages: (fraction done estimate, current order).
     std::function<void(double fraction, int order)> progress;
     const CancelFlag* cancel = nullptr;  // polled per ray; Cancelled is thrown
@@ -198,6 +202,11 @@ struct MultipleScattering {
     std::vector<float> radiance;           // Σ L^k[node][λ] when MsSettings::keep_radiance
     std::vector<MsOrderInfo> orders;        // orders 2 … K computed (order 1 is exact)
     int highest_order = 1;                  // K
+    // 0, or k: order k's gather gave back, bit for bit, the state order k started from (ln G^k
+    // and E^{k−1}: every G at the floor of the logarithm, E settled), so orders k + 1 … K
+    // repeat order k exactly and were added without being recomputed (the result is the same,
+    // value for value; fixed max_order only stops being slow).
+    int repeats_after_order = 0;
     bool tail_added = false;
     std::vector<double> tail_ratio;         // q per wavelength when the tail was added
     double precompute_seconds = 0.0;

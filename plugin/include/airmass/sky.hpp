@@ -94,7 +94,10 @@ struct SkySettings {
     // azimuth spans [0°, 180°] in `grid` intervals; the zenith angle has two pieces split
     // exactly at the horizon (sky / ground, never interpolated across), each grid/2
     // intervals, denser toward the horizon. 0: evaluate every pixel. −1 (auto): the grid
-    // of kSkyDefaultGrid when it needs fewer rays than the image, else every pixel.
+    // of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than
+    // the rays a per-pixel render evaluates (the region's pixels, halved by the mirror
+    // symmetry when it applies); otherwise every pixel is evaluated (as grid 0: the grid's
+    // own limit, exact and cheaper). effective_sky_grid says which.
     int grid = -1;
     // Multiple scattering (multiple_scattering.hpp), on by default: without it the sky is
     // far too dark at twilight and in the Earth's shadow (docs/multiple_scattering.md). The
@@ -109,7 +112,11 @@ struct SkySettings {
     // The multiple-scattering view (evaluator.hpp MsView): the tables are integrated along the
     // rays of a coarse sun-aligned grid of this many azimuth intervals and interpolated for
     // every grid node or pixel (the light is smooth in direction). 0: integrated along every
-    // evaluated ray. Error and cost: `airmass report sky`, docs/sky.md.
+    // evaluated ray. As for `grid`, the view is built only when it has fewer rays
+    // ((M + 1) × 2 (M/2 + 1) for M intervals) than the render evaluates (the sky grid's nodes
+    // when it is used, else the pixels); otherwise the tables are integrated along every
+    // evaluated ray (as 0). effective_sky_multiple_grid says which. Error and cost:
+    // `airmass report sky`, docs/sky.md.
     int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
@@ -125,6 +132,10 @@ void validate(const SkySettings& settings);  // throws SkyError
 
 // The grid intervals a render will use (settings.grid resolved: 0 = every pixel).
 int effective_sky_grid(const Scene& scene, const SkySettings& settings);
+// The multiple-scattering view's intervals a render will use (settings.multiple_grid
+// resolved: 0 = the tables integrated along every evaluated ray, and 0 without multiple
+// scattering).
+int effective_sky_multiple_grid(const Scene& scene, const SkySettings& settings);
 
 // The multiple-scattering tables render_sky computes for `scene` and `settings` (the
 // atmosphere at the wavelengths the image uses; settings.multiple). They depend on neither

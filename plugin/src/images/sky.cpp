@@ -302,15 +302,47 @@ void add_sun_disc(const FrameContext& ctx, const SkySettings& settings, FloatIma
     }
 }
 
-// settings.grid resolved for a sun (the mirror halves the rays of a per-pixel image).
-int grid_for(const glm::dvec3& sun, const SkySettings& settings) {
-    if (settings.grid >= 0) return settings.grid;
+// The image columns a per-pixel render evaluates: every column, or with the mirror (key ≥ 0)
+// one of each mirrored pair.
+std::vector<int> evaluated_columns(long key, int W) {
+    std::vector<int> columns;
+    for (int x = 0; x < W; ++x) {
+        const long m = key >= 0 ? ((key - 1 - x) % W + W) % W : x;
+        if (x <= m) columns.push_back(x);
+    }
+    return columns;
+}
+
+// Rays a per-pixel render evaluates: the evaluated columns of every row of the region.
+double pixel_rays(const glm::dvec3& sun, const SkySettings& settings) {
     const int image_rows = settings.region == SkyRegion::upper ? (settings.height + 1) / 2 : settings.height;
-    const bool mirrored = mirror_key(sun, settings.width) >= 0;
-    const double pixel_rays = double(settings.width) * image_rows / (mirrored ? 2.0 : 1.0);
-    const int rows = settings.region == SkyRegion::upper ? kSkyDefaultGrid / 2 + 1 : kSkyDefaultGrid + 2;
-    const double grid_rays = double(kSkyDefaultGrid + 1) * rows;
-    return grid_rays < pixel_rays ? kSkyDefaultGrid : 0;
+    return double(evaluated_columns(mirror_key(sun, settings.width), settings.width).size()) * image_rows;
+}
+
+// Rays of a sun-aligned grid of G intervals (sky_grid.hpp SkyGrid::make): G + 1 columns and
+// G/2 + 1 rows per piece, one piece (the sky) for an upper-hemisphere image.
+double grid_rays(int G, bool sky_only) {
+    return double(G + 1) * (std::max(G / 2, 2) + 1) * (sky_only ? 1 : 2);
+}
+
+// settings.grid resolved for a sun (sky.hpp SkySettings::grid): a grid is used only when it
+// evaluates fewer rays than the pixels would (the mirror halves the rays of a per-pixel
+// image); otherwise every pixel is evaluated, the grid's own limit, exact and cheaper.
+int grid_for(const glm::dvec3& sun, const SkySettings& settings) {
+    const int G = settings.grid >= 0 ? settings.grid : kSkyDefaultGrid;
+    if (G == 0) return 0;
+    return grid_rays(G, settings.region == SkyRegion::upper) < pixel_rays(sun, settings) ? G : 0;
+}
+
+// settings.multiple_grid resolved likewise (SkySettings::multiple_grid): the view is built only
+// when it integrates fewer rays than the render evaluates (the grid's nodes, or the pixels),
+// else the tables are integrated along every evaluated ray.
+int ms_grid_for(const glm::dvec3& sun, const SkySettings& settings) {
+    const int M = settings.multiple_scattering ? settings.multiple_grid : 0;
+    if (M == 0) return 0;
+    const int G = grid_for(sun, settings);
+    const double evaluated = G > 0 ? grid_rays(G, settings.region == SkyRegion::upper) : pixel_rays(sun, settings);
+    return grid_rays(M, false) < evaluated ? M : 0;
 }
 
 // The progress units of one image (render_frame reports exactly these): a unit per grid row
@@ -325,6 +357,10 @@ std::size_t frame_work(const SkySettings& settings, int G, const Horizon& hz) {
 
 int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
     return grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings);
+}
+
+int effective_sky_multiple_grid(const Scene& scene, const SkySettings& settings) {
+    return ms_grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings);
 }
 
 MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
@@ -355,7 +391,19 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m);
     const int G = grid_for(ctx.sun, settings);
     SkyGrid grid;
-    if (G > 0) grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
+    // A grid or view too large for the memory: SkyError naming the setting (not std::bad_alloc).
+    const auto too_large = [](const char* field, int n, double values) {
+        return SkyError(std::string(field) + " = " + std::to_string(n) + ": the grid needs " +
+                        std::to_string(values * 8.0 / 1e9) + " GB, more memory than is available; use a smaller " +
+                        field);
+    };
+    if (G > 0) {
+        try {
+            grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
+        } catch (const std::bad_alloc&) {
+            throw too_large("grid", G, grid_rays(G, upper) * 6.0);
+        }
+    }
     const int grid_rows = grid.rows();
     const std::size_t total_work = frame_work(settings, G, hz);
     auto report = [&](std::size_t n) {
@@ -381,8 +429,12 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     std::vector<Scratch> scratch(static_cast<std::size_t>(threads));
     // Multiple scattering interpolated from the observer's view (MsView) unless asked per ray.
     std::optional<MsView> view;
-    if (ctx.evaluator.tables() && settings.multiple_grid > 0)
-        view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), settings.multiple_grid, threads, hooks);
+    if (const int M = ms_grid_for(ctx.sun, settings); ctx.evaluator.tables() && M > 0)
+        try {
+            view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), M, threads, hooks);
+        } catch (const std::bad_alloc&) {
+            throw too_large("multiple_grid", M, grid_rays(M, false) * 2.0 * double(nw));
+        }
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate = [&](Scratch& s, std::size_t n) {
         ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
@@ -498,11 +550,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         }
     } else {
         // ---- every pixel evaluated (half of them when the mirror applies) ----
-        std::vector<int> columns;
-        for (int x = 0; x < W; ++x) {
-            const long m = key >= 0 ? ((key - 1 - x) % W + W) % W : x;
-            if (x <= m) columns.push_back(x);
-        }
+        const std::vector<int> columns = evaluated_columns(key, W);
         report(std::size_t(grid_rows));
         {
             parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
@@ -685,6 +733,7 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
         ms["ray_samples"] = m.ray_samples;
         ms["view_ray_samples"] = settings.multiple_samples;
         ms["view_grid"] = settings.multiple_grid;  // 0: integrated along every ray
+        ms["view_grid_used"] = effective_sky_multiple_grid(scene, settings);
         j["multiple"] = ms;
     }
     j["basis"] = scene.basis.kind == SpectralBasis::Kind::rgb_schuler ? "rgb-schuler" : "spectral";

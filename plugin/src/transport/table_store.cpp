@@ -26,7 +26,7 @@ extern const char* const kSourceDigest;
 namespace {
 
 constexpr char kMagic[8] = {'A', 'M', 'S', 'T', 'B', 'L', 0, 0};
-constexpr std::uint32_t kFormat = 2;  // 2: MsOrderInfo::tail_corrected_change
+constexpr std::uint32_t kFormat = 3;  // 2: MsOrderInfo::tail_corrected_change; 3: repeats_after_order
 constexpr std::uint32_t kByteOrderMark = 0x01020304u;
 
 class Writer {
@@ -184,6 +184,7 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
         p.put(o.tail_corrected_change);
     }
     p.put(ms.highest_order);
+    p.put(ms.repeats_after_order);
     p.put(static_cast<std::uint8_t>(ms.tail_added));
     p.put_vector(ms.tail_ratio);
     p.put(ms.precompute_seconds);
@@ -229,7 +230,7 @@ std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> 
         ok = p.get(o.order) && p.get_vector(o.relative) && p.get(o.max_relative) && p.get(o.tail_corrected_change);
         ms.orders.push_back(std::move(o));
     }
-    ok = ok && p.get(ms.highest_order) && p.get(tail) && p.get_vector(ms.tail_ratio) &&
+    ok = ok && p.get(ms.highest_order) && p.get(ms.repeats_after_order) && p.get(tail) && p.get_vector(ms.tail_ratio) &&
          p.get(ms.precompute_seconds) && p.at_end();
     if (!ok || mode < 0 || mode > int(MsMode::isotropic_lut) || parameterisation < 0 ||
         parameterisation > int(MsParameterisation::seed004))
