@@ -315,6 +315,41 @@ TEST(SkyRender, FiniteAndNonNegativeAtTheExtremes) {
     }
 }
 
+TEST(SkyRender, GroundOffDropsOnlyTheSunlitGround) {
+    // view.ground (EvalSettings, as `airmass render --no-ground`) in the sky: rows above the
+    // horizon never see the ground and stay the same to the bit; straight down from an observer
+    // on the ground the whole pixel is the ground's Lambert term, (albedo/π)·E·T_sun·cos θs
+    // (no view path in front of it), and without the ground it is 0.
+    Scene scene = earth();
+    use_rgb(scene);
+    scene.sun.elevation_deg = 30.0;
+    scene.observer.altitude_m = 0.0;
+    SkySettings s = small(64, 32);
+    s.grid = 0;
+    s.view.sun_disc = false;
+    const FloatImage on = render_sky(scene, s);
+    s.view.ground = false;
+    const FloatImage off = render_sky(scene, s);
+    for (int y = 0; y < s.height / 2; ++y)
+        for (int x = 0; x < s.width; ++x)
+            for (int c = 0; c < 3; ++c) ASSERT_EQ(on.at(x, y)[c], off.at(x, y)[c]) << x << "," << y;
+    const Atmosphere atm = compile_atmosphere(scene, basis_wavelengths_nm(scene.basis));
+    const SpectrumToRgb to_rgb = spectrum_to_rgb(scene.basis);
+    // The nadir row's centre is 180°·(1 − 0.5/32) from the zenith: its ray meets the ground at
+    // the observer, whose sun zenith is 60°.
+    const double mu_s = std::sin(30.0 * kPi / 180.0);
+    std::vector<double> t(atm.wavelength_count()), ground(atm.wavelength_count());
+    sun_transmittance(atm, 0.0, ZenithAngle<double>{mu_s, std::sqrt(1.0 - mu_s * mu_s)}, t);
+    for (std::size_t i = 0; i < t.size(); ++i)
+        ground[i] = atm.ground_albedo / kPi * atm.sun_irradiance[i] * t[i] * mu_s;
+    const Vec3d expected = to_rgb.apply(ground);
+    for (int x = 0; x < s.width; x += 7)
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(on.at(x, s.height - 1)[c], expected[c], 1e-5 * expected[c]) << x << " channel " << c;
+            EXPECT_EQ(off.at(x, s.height - 1)[c], 0.0f) << x << " channel " << c;
+        }
+}
+
 TEST(SkyRender, FromOrbitThePlanetFillsTheDiscBelowAndSpaceIsBlack) {
     // 400 km up, sun at the zenith: straight down is the lit ground (albedo 0.1), the limb
     // glows, and directions above the limb that miss the atmosphere are black.
@@ -442,6 +477,18 @@ TEST(SkySessionTest, EachSunEqualsTheOneShotRenderAndTheTablesAreMadeOnce) {
     other = s;
     other.multiple.enabled = false;
     EXPECT_THROW((void)session.render(sun_direction(20, 0), 0.0, other), SkyError);
+    other = s;
+    other.view.ground = false;  // the tables' key holds it (table_store.cpp)
+    EXPECT_THROW(
+        {
+            try {
+                (void)session.render(sun_direction(20, 0), 0.0, other);
+            } catch (const SkyError& e) {
+                EXPECT_NE(std::string(e.what()).find("ground = false"), std::string::npos) << e.what();
+                throw;
+            }
+        },
+        SkyError);
     EXPECT_THROW((void)session.render({0.0, 0.0, 2.0}, 0.0), SkyError);           // not a unit vector
     EXPECT_THROW((void)session.render(sun_direction(20, 0), -1.0), SkyError);     // below the ground
     other = s;
@@ -476,6 +523,7 @@ TEST(SkyFiles, MetadataAndPixelsSurviveTheEXR) {
     EXPECT_EQ(settings["width"], 32);
     EXPECT_EQ(settings["basis"], "rgb-schuler");
     EXPECT_EQ(settings["chapman"], std::string(chapman_method_name(s.view.chapman)));
+    EXPECT_EQ(settings["ground"], true);
     const auto scene_json = nlohmann::json::parse(find("airmass:scene"));
     EXPECT_FALSE(scene_json.is_null());
     EXPECT_EQ(find("airmass:convention"), "blender-equirectangular");
