@@ -205,7 +205,7 @@ int main(int argc, char** argv) {
         s.width = width;
         s.height = H;
         s.threads = threads;
-        s.multiple.store = &store;
+        s.multiple.tables.store = &store;
         const airmass::Scene scene = airmass::load_preset(preset);
         t0 = Clock::now();
         double c0 = cpu_now();

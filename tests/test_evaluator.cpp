@@ -339,8 +339,8 @@ SkySettings sky_settings(int w, int h) {
     SkySettings s;
     s.width = w;
     s.height = h;
-    s.view_samples = 8;
-    s.sun_disc = false;
+    s.view.view_samples = 8;
+    s.view.sun_disc = false;
     return s;
 }
 
@@ -355,13 +355,13 @@ TEST(EvaluatorInSky, PixelIsTheSingleScatteringPixelPlusTheTablesRadianceInRgb) 
     s.multiple_grid = 0;  // the tables along every ray (the interpolated view: test_table_store.cpp)
     const FloatImage with = render_sky(scene, s);  // tables computed inside
     SkySettings off = s;
-    off.multiple_scattering = false;
+    off.multiple.enabled = false;
     const FloatImage without = render_sky(scene, off);
 
     // Independent: the atmosphere at the basis' wavelengths, tables computed here.
     EvalSettings es;
-    es.chapman = s.chapman;
-    es.view_samples = s.view_samples;
+    es.chapman = s.view.chapman;
+    es.view_samples = s.view.view_samples;
     es.sun_disc = false;
     es.ground = true;
     const SpectrumToRgb to_rgb = spectrum_to_rgb(scene.basis);
@@ -441,7 +441,7 @@ TEST(EvaluatorInSky, MultipleScatteringMattersMostInTheEarthsShadow) {
     SkySettings s = sky_settings(64, 32);
     const MultipleScattering tables = sky_multiple_scattering(scene, s);
     SkySettings off = s;
-    off.multiple_scattering = false;
+    off.multiple.enabled = false;
     std::map<double, double> ratio;
     for (double elevation : {45.0, -6.0}) {
         scene.sun.elevation_deg = elevation;
@@ -463,7 +463,7 @@ TEST(EvaluatorInSky, FiniteAndNonNegativeAtTheExtremes) {
         scene.basis.kind = SpectralBasis::Kind::rgb_schuler;
         scene.basis.wavelengths_nm.clear();
         SkySettings s = sky_settings(32, 16);
-        s.sun_disc = true;
+        s.view.sun_disc = true;
         const MultipleScattering tables = sky_multiple_scattering(scene, s);
         // Exactly the zenith, the horizontal (view zenith 90°, two azimuths), the nadir (180°).
         const std::vector<glm::dvec3> dirs = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {0, 0, -1}, {1, 0, -1e-9}};
@@ -490,8 +490,8 @@ TEST(EvaluatorInSky, FiniteAndNonNegativeAtTheExtremes) {
 TEST(EvaluatorInSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) {
     const Scene scene = earth_rgb();
     SkySettings s = sky_settings(64, 32);
-    s.multiple.max_order = 5;
-    s.multiple_samples = 24;
+    s.multiple.tables.max_order = 5;
+    s.multiple.view_samples = 24;
     nlohmann::json j = nlohmann::json::parse(sky_settings_to_json(scene, s));
     EXPECT_EQ(j.at("multiple_scattering"), true);
     EXPECT_EQ(j.at("multiple").at("mode"), "orders");
@@ -499,7 +499,7 @@ TEST(EvaluatorInSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) 
     EXPECT_EQ(j.at("multiple").at("view_ray_samples"), 24);
     EXPECT_EQ(j.at("multiple").at("table").at("altitude"), MsTableSize{}.altitude);
     EXPECT_GE(j.at("multiple").at("table").at("azimuth").get<int>(), 1);  // 0 (automatic) resolved
-    s.multiple_scattering = false;
+    s.multiple.enabled = false;
     j = nlohmann::json::parse(sky_settings_to_json(scene, s));
     EXPECT_EQ(j.at("multiple_scattering"), false);
     EXPECT_FALSE(j.contains("multiple"));
@@ -507,7 +507,7 @@ TEST(EvaluatorInSky, MetadataRecordsWhetherAndHowMultipleScatteringWasIncluded) 
 
 TEST(EvaluatorInSky, BadSettingsAndForeignTablesNameTheField) {
     SkySettings s;
-    s.multiple_samples = 0;
+    s.multiple.view_samples = 0;
     try {
         validate(s);
         FAIL();
@@ -515,14 +515,14 @@ TEST(EvaluatorInSky, BadSettingsAndForeignTablesNameTheField) {
         EXPECT_NE(std::string(e.what()).find("multiple_samples = 0"), std::string::npos) << e.what();
     }
     s = {};
-    s.multiple.max_order = 1;
+    s.multiple.tables.max_order = 1;
     try {
         validate(s);
         FAIL();
     } catch (const SkyError& e) {
         EXPECT_NE(std::string(e.what()).find("multiple.max_order"), std::string::npos) << e.what();
     }
-    s.multiple_scattering = false;  // the table settings are not used, so not checked
+    s.multiple.enabled = false;  // the table settings are not used, so not checked
     EXPECT_NO_THROW(validate(s));
 
     // Tables of another atmosphere (3 wavelengths) for a spectral sky.

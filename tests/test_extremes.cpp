@@ -66,11 +66,10 @@ Outcome run(const std::string& toml, const std::string& what, bool multiple) {
         SkySettings s;
         s.width = 32;
         s.height = 16;
-        s.view_samples = 4;
+        s.view.view_samples = 4;
         s.grid = 0;
-        s.threads = 2;
-        s.multiple_scattering = multiple;
-        s.multiple.threads = 2;
+        s.threads = 2;  // the tables' too
+        s.multiple.enabled = multiple;
         expect_image_ok(render_sky(scene, s), what + " (sky)");
 
         const double wl[] = {680.0, 550.0, 440.0};

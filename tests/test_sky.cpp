@@ -70,11 +70,11 @@ SkySettings small(int w = 64, int h = 32) {
     SkySettings s;
     s.width = w;
     s.height = h;
-    s.view_samples = 8;
+    s.view.view_samples = 8;
     // The checks here compare against single-scattering references (the evaluator, the
     // transmittance, per-pixel vs grid, Blender's conventions); multiple scattering in the
     // sky is tested in test_evaluator.cpp.
-    s.multiple_scattering = false;
+    s.multiple.enabled = false;
     return s;
 }
 
@@ -187,7 +187,7 @@ TEST(SkyRender, BrightestPixelIsWhereBlenderPutsTheSun) {
                 scene.sun.elevation_deg = e;
                 scene.sun.azimuth_deg = rotation;
                 SkySettings s = small(128, 64);
-                s.sun_disc = disc;
+                s.view.sun_disc = disc;
                 const FloatImage img = render_sky(scene, s);
                 const Argmax m = brightest(img);
                 // Expected direction from Blender's convention, written out here.
@@ -219,7 +219,7 @@ TEST(SkyRender, PixelsEqualTheEvaluatorAlongTheirDirections) {
         scene.sun.azimuth_deg = rotation;
         scene.sun.elevation_deg = 12.0;
         SkySettings s = small(64, 32);
-        s.sun_disc = false;
+        s.view.sun_disc = false;
         const FloatImage img = render_sky(scene, s);
         for (int y = 0; y < s.height; y += 3)
             for (int x = 0; x < s.width; x += 5) {
@@ -251,10 +251,10 @@ TEST(SkyRender, SunDiscCarriesItsTransmittedIrradianceAtAnyResolution) {
     const Vec3d expected = to_rgb.apply(e_t);
     for (auto [W, H] : {std::pair{64, 32}, std::pair{512, 256}, std::pair{2048, 1024}}) {
         SkySettings s = small(W, H);
-        s.view_samples = 2;
-        s.sun_disc = true;
+        s.view.view_samples = 2;
+        s.view.sun_disc = true;
         const FloatImage with = render_sky(scene, s);
-        s.sun_disc = false;
+        s.view.sun_disc = false;
         const FloatImage without = render_sky(scene, s);
         double sum[3] = {0, 0, 0};
         for (int y = 0; y < H; ++y)
@@ -298,7 +298,7 @@ TEST(SkyRender, FiniteAndNonNegativeAtTheExtremes) {
                     sc.sun.elevation_deg = e;
                     sc.sun.azimuth_deg = 0.0;
                     SkySettings s = small(48, 24);
-                    s.view_samples = 4;
+                    s.view.view_samples = 4;
                     const FloatImage img = render_sky(sc, s);
                     double max_v = 0;
                     for (float v : img.pixels) {
@@ -315,6 +315,41 @@ TEST(SkyRender, FiniteAndNonNegativeAtTheExtremes) {
     }
 }
 
+TEST(SkyRender, GroundOffDropsOnlyTheSunlitGround) {
+    // view.ground (EvalSettings, as `airmass render --no-ground`) in the sky: rows above the
+    // horizon never see the ground and stay the same to the bit; straight down from an observer
+    // on the ground the whole pixel is the ground's Lambert term, (albedo/π)·E·T_sun·cos θs
+    // (no view path in front of it), and without the ground it is 0.
+    Scene scene = earth();
+    use_rgb(scene);
+    scene.sun.elevation_deg = 30.0;
+    scene.observer.altitude_m = 0.0;
+    SkySettings s = small(64, 32);
+    s.grid = 0;
+    s.view.sun_disc = false;
+    const FloatImage on = render_sky(scene, s);
+    s.view.ground = false;
+    const FloatImage off = render_sky(scene, s);
+    for (int y = 0; y < s.height / 2; ++y)
+        for (int x = 0; x < s.width; ++x)
+            for (int c = 0; c < 3; ++c) ASSERT_EQ(on.at(x, y)[c], off.at(x, y)[c]) << x << "," << y;
+    const Atmosphere atm = compile_atmosphere(scene, basis_wavelengths_nm(scene.basis));
+    const SpectrumToRgb to_rgb = spectrum_to_rgb(scene.basis);
+    // The nadir row's centre is 180°·(1 − 0.5/32) from the zenith: its ray meets the ground at
+    // the observer, whose sun zenith is 60°.
+    const double mu_s = std::sin(30.0 * kPi / 180.0);
+    std::vector<double> t(atm.wavelength_count()), ground(atm.wavelength_count());
+    sun_transmittance(atm, 0.0, ZenithAngle<double>{mu_s, std::sqrt(1.0 - mu_s * mu_s)}, t);
+    for (std::size_t i = 0; i < t.size(); ++i)
+        ground[i] = atm.ground_albedo / kPi * atm.sun_irradiance[i] * t[i] * mu_s;
+    const Vec3d expected = to_rgb.apply(ground);
+    for (int x = 0; x < s.width; x += 7)
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(on.at(x, s.height - 1)[c], expected[c], 1e-5 * expected[c]) << x << " channel " << c;
+            EXPECT_EQ(off.at(x, s.height - 1)[c], 0.0f) << x << " channel " << c;
+        }
+}
+
 TEST(SkyRender, FromOrbitThePlanetFillsTheDiscBelowAndSpaceIsBlack) {
     // 400 km up, sun at the zenith: straight down is the lit ground (albedo 0.1), the limb
     // glows, and directions above the limb that miss the atmosphere are black.
@@ -323,7 +358,7 @@ TEST(SkyRender, FromOrbitThePlanetFillsTheDiscBelowAndSpaceIsBlack) {
     scene.observer.altitude_m = 400e3;
     scene.sun.elevation_deg = 90.0;
     SkySettings s = small(128, 64);
-    s.sun_disc = false;
+    s.view.sun_disc = false;
     const FloatImage img = render_sky(scene, s);
     const float* nadir = img.at(0, s.height - 1);
     EXPECT_GT(nadir[1], 0.0f);
@@ -359,7 +394,7 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
         scene.observer.altitude_m = alt;
         // 512 × 256: more pixels than the grid's 257 × 258 nodes, so the grid is used.
         SkySettings s = small(512, 256);
-        s.sun_disc = false;
+        s.view.sun_disc = false;
         s.grid = 0;
         const FloatImage exact = render_sky(scene, s);
         s.grid = 256;
@@ -438,8 +473,8 @@ TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
 
     // The multiple-scattering view likewise, against the rays the render evaluates.
     s = small(16, 8);
-    s.multiple_scattering = true;
-    s.multiple.table = {6, 16, 12, 4};  // small tables: the check is the path, not accuracy
+    s.multiple.enabled = true;
+    s.multiple.tables.table = {6, 16, 12, 4};  // small tables: the check is the path, not accuracy
     const MultipleScattering tables = sky_multiple_scattering(scene, s);
     s.grid = 0;
     s.multiple_grid = 0;
@@ -464,7 +499,7 @@ TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
     EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0);
     s.grid = 0;  // the 2 048 pixels: the default view is used
     EXPECT_EQ(effective_sky_multiple_grid(scene, s), kSkyDefaultMultipleGrid);
-    s.multiple_scattering = false;
+    s.multiple.enabled = false;
     EXPECT_EQ(effective_sky_multiple_grid(scene, s), 0);
 }
 
@@ -478,8 +513,8 @@ TEST(SkySessionTest, EachSunEqualsTheOneShotRenderAndTheTablesAreMadeOnce) {
     Scene scene = earth();
     use_rgb(scene);
     SkySettings s = small(64, 32);
-    s.multiple_scattering = true;
-    s.multiple.table = {6, 16, 12, 6};  // small tables: the check is about reuse, not accuracy
+    s.multiple.enabled = true;
+    s.multiple.tables.table = {6, 16, 12, 6};  // small tables: the check is about reuse, not accuracy
     std::atomic<std::size_t> table_units{0};
     RenderHooks hooks;
     hooks.work_done = [&](std::size_t n, std::size_t) { table_units += n; };
@@ -505,7 +540,7 @@ TEST(SkySessionTest, EachSunEqualsTheOneShotRenderAndTheTablesAreMadeOnce) {
     }
     // Settings the atmosphere or the tables depend on are refused by name; the rest may change.
     SkySettings other = s;
-    other.chapman = ChapmanMethod::exact;
+    other.view.chapman = ChapmanMethod::exact;
     EXPECT_THROW(
         {
             try {
@@ -517,17 +552,29 @@ TEST(SkySessionTest, EachSunEqualsTheOneShotRenderAndTheTablesAreMadeOnce) {
         },
         SkyError);
     other = s;
-    other.multiple.table.altitude = 8;
+    other.multiple.tables.table.altitude = 8;
     EXPECT_THROW((void)session.render(sun_direction(20, 0), 0.0, other), SkyError);
     other = s;
-    other.multiple_scattering = false;
+    other.multiple.enabled = false;
     EXPECT_THROW((void)session.render(sun_direction(20, 0), 0.0, other), SkyError);
+    other = s;
+    other.view.ground = false;  // the tables' key holds it (table_store.cpp)
+    EXPECT_THROW(
+        {
+            try {
+                (void)session.render(sun_direction(20, 0), 0.0, other);
+            } catch (const SkyError& e) {
+                EXPECT_NE(std::string(e.what()).find("ground = false"), std::string::npos) << e.what();
+                throw;
+            }
+        },
+        SkyError);
     EXPECT_THROW((void)session.render({0.0, 0.0, 2.0}, 0.0), SkyError);           // not a unit vector
     EXPECT_THROW((void)session.render(sun_direction(20, 0), -1.0), SkyError);     // below the ground
     other = s;
     other.width = 32;
     other.height = 16;
-    other.view_samples = 4;
+    other.view.view_samples = 4;
     other.multiple_grid = 8;
     EXPECT_EQ(session.render(sun_direction(20, 0), 0.0, other).width, 32);
 }
@@ -555,7 +602,8 @@ TEST(SkyFiles, MetadataAndPixelsSurviveTheEXR) {
     const auto settings = nlohmann::json::parse(find("airmass:settings"));
     EXPECT_EQ(settings["width"], 32);
     EXPECT_EQ(settings["basis"], "rgb-schuler");
-    EXPECT_EQ(settings["chapman"], std::string(chapman_method_name(s.chapman)));
+    EXPECT_EQ(settings["chapman"], std::string(chapman_method_name(s.view.chapman)));
+    EXPECT_EQ(settings["ground"], true);
     const auto scene_json = nlohmann::json::parse(find("airmass:scene"));
     EXPECT_FALSE(scene_json.is_null());
     EXPECT_EQ(find("airmass:convention"), "blender-equirectangular");
@@ -627,7 +675,7 @@ TEST(SkyFiles, EveryExrCompressionIsLossless) {
     SkySettings s;
     s.width = 64;
     s.height = 32;
-    s.multiple_scattering = false;
+    s.multiple.enabled = false;
     FloatImage sky = render_sky(load_preset("earth"), s);
     sky.pixels[0] = 1e-42f;  // denormal
     sky.pixels[1] = -0.0f;
@@ -668,7 +716,7 @@ TEST(SkySettingsTest, BadValuesNameTheFieldAndRange) {
         EXPECT_NE(std::string(e.what()).find("width = 0"), std::string::npos) << e.what();
     }
     s = {};
-    s.view_samples = 0;
+    s.view.view_samples = 0;
     EXPECT_THROW(validate(s), SkyError);
     s = {};
     s.height = 1;

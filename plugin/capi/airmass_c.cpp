@@ -144,15 +144,15 @@ airmass::SkySettings sky_settings_from(const airmass_sky_options& o) {
     airmass::SkySettings settings;
     settings.width = o.width;
     settings.height = o.height > 0 ? o.height : std::max(2, o.width / 2);
-    settings.view_samples = o.view_samples;
-    settings.chapman = chapman_from(o.chapman, settings.chapman, "sky_options.chapman");
-    settings.sun_disc = o.sun_disc != 0;
+    settings.view.view_samples = o.view_samples;
+    settings.view.chapman = chapman_from(o.chapman, settings.view.chapman, "sky_options.chapman");
+    settings.view.sun_disc = o.sun_disc != 0;
     settings.region = o.upper_only ? airmass::SkyRegion::upper : airmass::SkyRegion::full;
     settings.threads = o.threads;
     settings.grid = o.grid;
-    settings.multiple_scattering = o.multiple_scattering != 0;
+    settings.multiple.enabled = o.multiple_scattering != 0;
     settings.multiple_grid = o.multiple_grid;
-    settings.multiple_samples = o.multiple_samples;
+    settings.multiple.view_samples = o.multiple_samples;
     airmass::validate(settings);
     return settings;
 }
@@ -319,15 +319,15 @@ int32_t airmass_sky_options_init(airmass_sky_options* options) {
     options->struct_size = sizeof(airmass_sky_options);
     options->width = d.width;
     options->height = 0;
-    options->view_samples = d.view_samples;
+    options->view_samples = d.view.view_samples;
     options->chapman = nullptr;
-    options->sun_disc = d.sun_disc ? 1 : 0;
+    options->sun_disc = d.view.sun_disc ? 1 : 0;
     options->upper_only = d.region == airmass::SkyRegion::upper ? 1 : 0;
     options->threads = d.threads;
     options->grid = d.grid;
-    options->multiple_scattering = d.multiple_scattering ? 1 : 0;
+    options->multiple_scattering = d.multiple.enabled ? 1 : 0;
     options->multiple_grid = d.multiple_grid;
-    options->multiple_samples = d.multiple_samples;
+    options->multiple_samples = d.multiple.view_samples;
     return AIRMASS_OK;
 }
 
@@ -406,15 +406,16 @@ int32_t airmass_sky_session_render(const airmass_sky_session* session, const air
         airmass::SkySettings settings = ss.settings();
         if (options) {
             const airmass::SkySettings asked = sky_settings_from(*options);
-            if (asked.chapman != settings.chapman)
-                throw airmass::SkyError("sky_options.chapman = \"" + std::string(airmass::chapman_method_name(asked.chapman)) +
+            if (asked.view.chapman != settings.view.chapman)
+                throw airmass::SkyError("sky_options.chapman = \"" +
+                                        std::string(airmass::chapman_method_name(asked.view.chapman)) +
                                         "\": the session was made with \"" +
-                                        std::string(airmass::chapman_method_name(settings.chapman)) +
+                                        std::string(airmass::chapman_method_name(settings.view.chapman)) +
                                         "\" (its atmosphere and tables depend on it); create another session");
-            if (asked.multiple_scattering != settings.multiple_scattering)
+            if (asked.multiple.enabled != settings.multiple.enabled)
                 throw airmass::SkyError("sky_options.multiple_scattering = " +
                                         std::to_string(options->multiple_scattering) + ": the session was made with " +
-                                        (settings.multiple_scattering ? "1" : "0") + "; create another session");
+                                        (settings.multiple.enabled ? "1" : "0") + "; create another session");
             settings = asked;
         }
         check_float_count(settings, float_count);

@@ -270,8 +270,8 @@ json native_entry(const Scene& scene, const std::string& file, double seconds, c
            {"seconds", seconds},
            {"renderer_matched", s.renderer_matched},
            {"color_model", s.color == ColorModel::spectral ? "spectral" : "renderer_rgb"},
-           {"view_samples", s.view_samples},
-           {"multiple_scattering", s.multiple_scattering}};
+           {"view_samples", s.view.view_samples},
+           {"multiple_scattering", s.multiple.enabled}};
     if (s.renderer_matched) {
         // The Henyey–Greenstein g this image was rendered with (the one rule, henyey_greenstein_g):
         // the material's Volume Scatter gets the same (tests/blender/test_material_graph.py).
@@ -300,7 +300,7 @@ RenderSettings native_settings(const std::string& name, const RenderSettings& ba
         // it, but it integrates to the right pixel mean (docs/compare.md).
         // Multiple scattering included, as in the sky texture users make (SkySettings' default).
         s.pixel_filter = PixelFilter::box;
-        s.multiple_scattering = true;
+        s.multiple.enabled = true;
         return s;
     }
     s.renderer_matched = true;
@@ -309,7 +309,7 @@ RenderSettings native_settings(const std::string& name, const RenderSettings& ba
     s.rgb_wavelengths_nm = rgb_wl;
     if (name == "native_matched") return s;
     if (name == "native_matched_ms") {
-        s.multiple_scattering = true;  // the default tables (multiple_scattering.hpp)
+        s.multiple.enabled = true;  // the default tables (multiple_scattering.hpp)
         return s;
     }
     const bool boxed = name == "native_matched_box" || name == "native_povray_matched_box";
@@ -362,7 +362,7 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
     // ---- native renders -------------------------------------------------------------------
     RenderSettings base;
     base.camera = cam;
-    base.view_samples = o.plan.view_samples;
+    base.view.view_samples = o.plan.view_samples;
     base.threads = o.threads;
     const std::array<double, 3> rgb_wl = exporter_rgb_wavelengths(scene, "auto");
     const double R = scene.planet.radius_m;
@@ -469,10 +469,10 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
             SkySettings ss;
             ss.width = w;
             ss.height = w / 2;
-            ss.view_samples = o.plan.view_samples;
-            ss.sun_disc = false;
+            ss.view.view_samples = o.plan.view_samples;
+            ss.view.sun_disc = false;
             ss.grid = -1;  // what `airmass sky` does by default (its error: docs/sky.md)
-            ss.multiple_scattering = true;  // as `airmass sky` by default, and native_physical_box
+            ss.multiple.enabled = true;  // as `airmass sky` by default, and native_physical_box
             ss.threads = o.threads;
             const auto t0 = std::chrono::steady_clock::now();
             FloatImage sky;

@@ -61,7 +61,7 @@ struct EvalOptions {
     bool reference = false;
     int threads = 0;
     bool no_multiple = false;
-    MsCliOptions ms;  // --ms-samples 32, as RenderSettings::multiple_samples and SkySettings::multiple_samples
+    MsCliOptions ms;  // --ms-samples: MultipleScatteringOptions::view_samples, as `sky` and `render`
     bool ms_columns = false;
 };
 
@@ -107,10 +107,9 @@ void add_eval_command(CLI::App& app) {
         if (opt->samples < 1 || opt->samples > 1000000)
             throw CliError("eval: --samples " + std::to_string(opt->samples) + ": must be in [1, 1000000]");
         if (opt->threads < 0 || opt->threads > 4096) throw CliError("eval: --threads must be in [0, 4096]");
-        MsSettings ms_settings;
-        int ms_samples = 32;
-        apply_ms_options("eval", opt->ms, ms_settings, ms_samples, 100000);
-        ms_settings.threads = opt->threads;
+        MultipleScatteringOptions multiple;
+        apply_ms_options("eval", opt->ms, multiple, 100000);
+        multiple.enabled = !opt->no_multiple;
         const std::vector<double> wavelengths = parse_wavelength_list(opt->wavelengths);
         EvalSettings settings;
         settings.view_samples = opt->samples;
@@ -134,20 +133,21 @@ void add_eval_command(CLI::App& app) {
         if (opt->threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, opt->threads);
         // The evaluator: the tables once for all rows (they hold light per unit irradiance:
         // independent of --solar-irradiance, which is applied per ray).
-        const Evaluator evaluator = make_evaluator(
-            std::move(atm), {!opt->no_multiple && !rows.empty(), ms_settings, ms_samples}, opt->threads);
+        if (rows.empty()) multiple.enabled = false;
+        const Evaluator evaluator = make_evaluator(std::move(atm), multiple, opt->threads);
         const auto evaluate = [&](std::size_t k) {
             const auto& v = rows[k].values;
             const ViewRay ray{v[0], direction_from_zenith_azimuth_deg<double>(v[1], 0.0),
                               direction_from_zenith_azimuth_deg<double>(v[2], v[3])};
             const auto part = [&](std::vector<double>& x) { return std::span(x).subspan(k * nw, nw); };
             const RadianceOut out{part(T), part(R), part(M), part(L)};
-            const MsRadianceOut multiple{part(MR), part(MM), part(MT)};
-            if (!opt->reference) return evaluator.radiance(ray, out, &multiple);
+            const MsRadianceOut ms_out{part(MR), part(MM), part(MT)};
+            if (!opt->reference) return evaluator.radiance(ray, out, &ms_out);
             // The brute-force reference of single scattering, plus the same tables' part.
             single_scattering_reference(scene, evaluator.atmosphere(), ray, out);
             if (!evaluator.tables()) return;
-            multiple_scattering_radiance(evaluator.atmosphere(), *evaluator.tables(), ray, multiple, ms_samples);
+            multiple_scattering_radiance(evaluator.atmosphere(), *evaluator.tables(), ray, ms_out,
+                                         multiple.view_samples);
             for (std::size_t w = 0; w < nw; ++w) L[k * nw + w] += MT[k * nw + w];
         };
         tbb::parallel_for(std::size_t(0), rows.size(), evaluate);

@@ -232,7 +232,7 @@ PovSceneInfo write_pov_scene(const Scene& scene, const CameraModel& cam, const P
         w = std::clamp(w, 64, 16384);
         ss.width = w;
         ss.height = w / 2;
-        ss.sun_disc = false;  // a disc a fraction of a pixel wide; the light carries the sun
+        ss.view.sun_disc = false;  // a disc a fraction of a pixel wide; the light carries the sun
         ss.threads = o->threads;
         validate(ss);
         ProgressBar bar("sky texture " + std::to_string(w) + "x" + std::to_string(w / 2), 0, bar_on);

@@ -43,8 +43,8 @@ namespace {
 struct RenderOptions {
     std::string scene_path, preset, output;
     std::optional<int> width, height;
-    int samples = RenderSettings{}.view_samples;
-    std::string chapman = std::string(chapman_method_name(RenderSettings{}.chapman));
+    int samples = RenderSettings{}.view.view_samples;
+    std::string chapman = std::string(chapman_method_name(RenderSettings{}.view.chapman));
     bool renderer_matched = false;
     std::string matched_renderer = "blender";
     std::string rgb_model = "spectral";
@@ -306,20 +306,20 @@ void add_render_command(CLI::App& app) {
         RenderSettings settings;
         settings.projection = o->panoramic ? Projection::equirectangular : Projection::perspective;
         settings.camera = resized_camera(scene, settings.projection, o->width, o->height, parse_sensor_fit(o->sensor_fit));
-        settings.view_samples = o->samples;
+        settings.view.view_samples = o->samples;
         const auto method = chapman_method_from_name(o->chapman);
         if (!method) throw CliError("render: unknown --chapman '" + o->chapman + "'");
-        settings.chapman = *method;
+        settings.view.chapman = *method;
         settings.renderer_matched = o->renderer_matched;
         settings.matched_renderer = o->matched_renderer == "povray" ? MatchedRenderer::povray : MatchedRenderer::blender;
         settings.color = o->rgb_model == "renderer" ? ColorModel::renderer_rgb : ColorModel::spectral;
         settings.pixel_filter = o->pixel_filter == "box" ? PixelFilter::box : PixelFilter::centre;
         if (settings.color == ColorModel::renderer_rgb)
             settings.rgb_wavelengths_nm = exporter_rgb_wavelengths(scene, o->rgb_wavelengths);
-        settings.sun_disc = o->sun_disc;
-        settings.ground = !o->no_ground;
-        settings.multiple_scattering = o->multiple;
-        apply_ms_options("render", o->ms, settings.multiple, settings.multiple_samples, 65536);  // as add_ms_options
+        settings.view.sun_disc = o->sun_disc;
+        settings.view.ground = !o->no_ground;
+        settings.multiple.enabled = o->multiple;
+        apply_ms_options("render", o->ms, settings.multiple, 65536);  // as add_ms_options
         if (!o->box.empty()) settings.medium_box = parse_box_km(o->box);
         settings.threads = o->threads;
         try {

@@ -203,7 +203,7 @@ void run_report(const Options& opt) {
     std::vector<int> grids = {64, 128, 256, 512, 1024};
     if (opt.quick) {
         sample_counts = {4, 16};
-        methods = {defaults.chapman, ChapmanMethod::schuler2012_rigged};
+        methods = {defaults.view.chapman, ChapmanMethod::schuler2012_rigged};
         grids = {64, 128};
     }
     std::vector<Config> configs;
@@ -214,9 +214,9 @@ void run_report(const Options& opt) {
             if (m != ChapmanMethod::exact || n <= 16) configs.push_back({m, n, default_basis, 0});
     for (std::size_t b = 0; b < bases.size(); ++b)
         if (b != default_basis)
-            for (int n : sample_counts) configs.push_back({defaults.chapman, n, b, 0});
-    for (int g : grids) configs.push_back({defaults.chapman, defaults.view_samples, default_basis, g});
-    if (!opt.quick) configs.push_back({defaults.chapman, defaults.view_samples, 0, kSkyDefaultGrid});
+            for (int n : sample_counts) configs.push_back({defaults.view.chapman, n, b, 0});
+    for (int g : grids) configs.push_back({defaults.view.chapman, defaults.view.view_samples, default_basis, g});
+    if (!opt.quick) configs.push_back({defaults.view.chapman, defaults.view.view_samples, 0, kSkyDefaultGrid});
 
     auto scene_for = [&](const Condition& c, const SpectralBasis& basis) {
         Scene s = base;
@@ -230,9 +230,9 @@ void run_report(const Options& opt) {
         SkySettings s;
         s.width = w;
         s.height = h;
-        s.chapman = m;
-        s.view_samples = samples;
-        s.sun_disc = false;
+        s.view.chapman = m;
+        s.view.view_samples = samples;
+        s.view.sun_disc = false;
         s.grid = grid;
         // The knobs measured here (Chapman method, view samples, basis, grid) are those of
         // the single-scattering evaluator, against a single-scattering reference; multiple
@@ -240,7 +240,7 @@ void run_report(const Options& opt) {
         // (`airmass report ms`) and its cost in the sky is in docs/sky.md. Leaving it on here
         // would add the same table error to every configuration and the reference would
         // need 189-wavelength tables.
-        s.multiple_scattering = false;
+        s.multiple.enabled = false;
         return s;
     };
 
@@ -438,7 +438,7 @@ void run_report(const Options& opt) {
     bool all_pass = true, any = false;
     std::ostringstream check;
     for (const auto& r : rows) {
-        if (r.cfg.chapman != defaults.chapman || r.cfg.samples != defaults.view_samples ||
+        if (r.cfg.chapman != defaults.view.chapman || r.cfg.samples != defaults.view.view_samples ||
             r.cfg.basis != default_basis || (r.cfg.grid != 0 && r.cfg.grid != kSkyDefaultGrid))
             continue;
         any = true;
@@ -450,7 +450,8 @@ void run_report(const Options& opt) {
               << (pass ? "≤ 1 %" : "**> 1 %**") << "\n";
     }
     if (any)
-        md << "**Default settings** (`" << chapman_method_name(defaults.chapman) << "`, " << defaults.view_samples
+        md << "**Default settings** (`" << chapman_method_name(defaults.view.chapman) << "`, "
+           << defaults.view.view_samples
            << " view samples, the preset's " << bases[default_basis].label
            << " basis) against the converged reference, 95th-percentile relative error over sky directions "
               "(sun ≤ 85° zenith, observer 0–10 km) — requirement ≤ 1 %: **"

@@ -49,8 +49,8 @@ struct SkyOptions {
     std::string scene_path, preset, output;
     int width = 2048;
     std::optional<int> height;
-    int samples = SkySettings{}.view_samples;
-    std::string chapman = std::string(chapman_method_name(SkySettings{}.chapman));
+    int samples = SkySettings{}.view.view_samples;
+    std::string chapman = std::string(chapman_method_name(SkySettings{}.view.chapman));
     std::optional<double> sun_elevation_deg, sun_rotation_deg, altitude_km;
     bool no_sun_disc = false;
     std::string basis;  // "", "rgb", "spectral"
@@ -286,7 +286,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
     const bool show = stderr_is_terminal() && !o.quiet;
     const auto t0 = std::chrono::steady_clock::now();
     std::optional<MultipleScattering> tables;
-    if (settings.multiple_scattering) {
+    if (settings.multiple.enabled) {
         ProgressBar bar("sky: multiple-scattering tables", 0, show);
         const RenderHooks hooks = progress_hooks(bar, cancel);
         tables = sky_multiple_scattering(base, settings, hooks);
@@ -316,7 +316,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
         metadata.emplace_back("DateTime", shown.substr(0, 4) + ":" + shown.substr(5, 2) + ":" + shown.substr(8, 2) +
                                               " " + shown.substr(11, 8));
         write_exr_atomic(f.path, image, metadata, &cancel, exr_compression_from_name(o.exr_compression));
-        const SunLight light = sun_light_at_observer(scene, settings.chapman);
+        const SunLight light = sun_light_at_observer(scene, settings.view.chapman);
         const glm::dvec3 colour = light.lamp_colour();
         csv += std::to_string(f.number) + "," + format_utc(f.time) + "," + format_place(lat) + "," +
                format_place(lon) + "," + sun_angle_fields(f.position) + "," + format_g17(light.lamp_strength()) +
@@ -329,7 +329,7 @@ void render_sequence(const SkyOptions& o, const Scene& base, const SkySettings& 
     if (!o.quiet)
         std::fprintf(stderr, "sky: wrote frames %d-%d of %d (%dx%d) and %s (%.4f s, tables %s)\n", q.first, q.last,
                      q.count, settings.width, settings.height, csv_path.c_str(), seconds,
-                     settings.multiple_scattering ? ("once: " + table_cache_summary(o.ms)).c_str() : "not used");
+                     settings.multiple.enabled ? ("once: " + table_cache_summary(o.ms)).c_str() : "not used");
 }
 
 }  // namespace
@@ -413,19 +413,19 @@ void add_sky_command(CLI::App& app) {
         SkySettings settings;
         settings.width = o->width;
         settings.height = o->height ? *o->height : std::max(2, o->width / 2);
-        settings.view_samples = o->samples;
+        settings.view.view_samples = o->samples;
         const auto method = chapman_method_from_name(o->chapman);
         if (!method) throw CliError("sky: unknown --chapman '" + o->chapman + "' (see `airmass chapman --list-methods`)");
-        settings.chapman = *method;
-        settings.sun_disc = !o->no_sun_disc;
+        settings.view.chapman = *method;
+        settings.view.sun_disc = !o->no_sun_disc;
         settings.region = o->hemisphere == "upper" ? SkyRegion::upper : SkyRegion::full;
         settings.threads = o->threads;
         settings.grid = o->grid;
-        settings.multiple_scattering = !o->no_multiple;
+        settings.multiple.enabled = !o->no_multiple;
         if (o->ms_grid == 1)
             throw CliError("sky: --ms-grid 1: must be 0 (every ray) or in [2, " + std::to_string(kSkyMaxGrid) + "]");
         settings.multiple_grid = o->ms_grid;
-        apply_ms_options("sky", o->ms, settings.multiple, settings.multiple_samples, kSkyMaxMultipleSamples);
+        apply_ms_options("sky", o->ms, settings.multiple, kSkyMaxMultipleSamples);
         try {
             validate(settings);
         } catch (const SkyError& e) {
@@ -464,7 +464,7 @@ void add_sky_command(CLI::App& app) {
                          scene.basis.kind == SpectralBasis::Kind::rgb_schuler
                              ? "rgb-schuler"
                              : (std::to_string(scene.basis.wavelengths_nm.size()) + " wavelengths").c_str(),
-                         settings.multiple_scattering
+                         settings.multiple.enabled
                              ? ("single + multiple scattering, " + table_cache_summary(o->ms)).c_str()
                              : "single scattering only",
                          seconds);

@@ -40,8 +40,9 @@ std::string table_cache_summary(const MsCliOptions& o) {
     return "tables not used";
 }
 
-void apply_ms_options(const std::string& command, MsCliOptions& o, MsSettings& s, int& samples,
+void apply_ms_options(const std::string& command, MsCliOptions& o, MultipleScatteringOptions& options,
                       int max_samples) {
+    MsSettings& s = options.tables;
     s.mode = o.mode == "isotropic_lut" ? MsMode::isotropic_lut : MsMode::orders;
     if (!(o.orders == 0 || (o.orders >= 2 && o.orders <= 1000)))
         throw CliError(command + ": --ms-orders " + std::to_string(o.orders) + ": must be 0 (automatic) or in [2, 1000]");
@@ -49,7 +50,7 @@ void apply_ms_options(const std::string& command, MsCliOptions& o, MsSettings& s
     if (o.samples < 1 || o.samples > max_samples)
         throw CliError(command + ": --ms-samples " + std::to_string(o.samples) + ": must be in [1, " +
                        std::to_string(max_samples) + "]");
-    samples = o.samples;
+    options.view_samples = o.samples;
     if (!o.table.empty()) {
         const auto n = parse_number_list(o.table, command + ": --ms-table", "a whole number of nodes",
                                          [](double v) { return v >= 0.0 && v <= 1e6 && v == std::floor(v); });

@@ -21,7 +21,10 @@
 
 namespace airmass {
 
-// Knobs of the evaluator. Their error-vs-cost tables are in docs/evaluation.md.
+// Knobs of the evaluator along each view ray (view-ray quality). Their error-vs-cost tables
+// are in docs/evaluation.md. The one struct every consumer holds (SkySettings::view,
+// RenderSettings::view, `airmass eval`); each consumer keeps its own defaults (the sky's
+// sun disc on, a camera render's off).
 struct EvalSettings {
     // Chapman method for exponential constituents (sun rays and view segments).
     ChapmanMethod chapman = ChapmanMethod::airmass;

@@ -36,14 +36,6 @@
 
 namespace airmass {
 
-// How the multiple-scattering part is computed: whether at all, its tables and the
-// quadrature along each view ray. One struct for every consumer (sky, render, eval, C ABI).
-struct MultipleScatteringOptions {
-    bool enabled = true;
-    MsSettings tables{};
-    int view_samples = 32;  // quadrature intervals per view ray (multiple_scattering_radiance)
-};
-
 // Multiple scattering as one observer sees it: the tables' radiance integrated along the rays
 // of a coarse sun-aligned grid of view directions (sky_grid.hpp; `intervals` azimuth steps
 // over 0–180° and intervals/2 + 1 zenith rows above and below the horizon) and interpolated
@@ -125,8 +117,9 @@ private:
     int ms_view_samples_ = 32;
 };
 
-// The multiple-scattering tables of `atmosphere` with `options.tables` (threads and cancel
-// defaulted from `threads` and `hooks.cancel`), progress reported through hooks.work_done as
+// The multiple-scattering tables of `atmosphere` with `options.tables`, computed on `threads`
+// threads (the consumer's one thread count; options.tables.threads is not read) and cancelled
+// by options.tables.cancel or else hooks.cancel, progress reported through hooks.work_done as
 // `units` of `total` while they are computed. Throws Cancelled.
 std::shared_ptr<const MultipleScattering> compute_tables(const Atmosphere& atmosphere,
                                                          const MultipleScatteringOptions& options, int threads,

@@ -128,7 +128,9 @@ struct MsSettings {
     // Sub-cells per grid cell and axis when integrating peaked phase functions (|g| > 0.3)
     // over the direction cells of the gather.
     int phase_subsamples = 4;
-    int threads = 0;  // 0: all hardware threads
+    // 0: all hardware threads. Read by precompute_multiple_scattering; compute_tables (every
+    // consumer's path, evaluator.hpp) sets it from the consumer's own `threads`.
+    int threads = 0;
     // Keep Σ_k L^k on the grid (diagnostics: flux balance). Costs one more table.
     bool keep_radiance = false;
     // Orders that repeat the previous one bit for bit (MultipleScattering::repeats_after_order)
@@ -220,6 +222,17 @@ struct MultipleScattering {
 
 // Throws std::invalid_argument naming the field, value and allowed range.
 void validate(const MsSettings& settings);
+
+// How a consumer adds the multiple-scattering part (evaluator.hpp make_evaluator): whether at
+// all, its tables and the quadrature along each view ray. The one struct every consumer holds
+// (SkySettings::multiple, RenderSettings::multiple, `airmass eval`, the C ABI); each consumer
+// keeps its own default for `enabled` (sky on, render off). The consumer's `threads` runs the
+// table precompute too (tables.threads is for precompute_multiple_scattering called directly).
+struct MultipleScatteringOptions {
+    bool enabled = true;
+    MsSettings tables{};
+    int view_samples = 32;  // quadrature intervals per view ray (multiple_scattering_radiance)
+};
 
 // Thread-safe (no shared state); TBB-parallel. Throws Cancelled if settings.cancel is set.
 MultipleScattering precompute_multiple_scattering(const Atmosphere& atmosphere, const MsSettings& settings = {});

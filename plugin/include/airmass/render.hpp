@@ -82,20 +82,20 @@ struct RenderSettings {
     // The camera; empty: the scene's [camera] (camera_from_scene) with `projection`.
     std::optional<CameraModel> camera;
     Projection projection = Projection::perspective;
-    int view_samples = 16;  // per scattering constituent along each view ray (single_scattering.hpp)
-    ChapmanMethod chapman = ChapmanMethod::airmass;
-    bool sun_disc = false;  // off by default: a disc a fraction of a pixel wide is not comparable
-    bool ground = true;
+    // View-ray quality (atmosphere.hpp EvalSettings: chapman, view_samples per scattering
+    // constituent, sun_disc, ground). The sun disc is off by default here: a disc a fraction
+    // of a pixel wide is not comparable (and never drawn with medium_box).
+    EvalSettings view{};
     bool renderer_matched = false;  // phase functions → Henyey–Greenstein (renderer_matched_scene)
     MatchedRenderer matched_renderer = MatchedRenderer::blender;  // whose phase functions, with renderer_matched
     ColorModel color = ColorModel::spectral;
     PixelFilter pixel_filter = PixelFilter::centre;
     std::array<double, 3> rgb_wavelengths_nm{680.0, 550.0, 440.0};  // renderer_rgb only
     std::optional<MediumBox> medium_box;
-    bool multiple_scattering = false;  // adds multiple_scattering_radiance (not with medium_box)
-    MsSettings multiple;               // its table settings
-    int multiple_samples = 32;         // quadrature intervals per view ray for it
-    int threads = 0;                   // 0: all hardware threads
+    // Multiple scattering (multiple_scattering.hpp MultipleScatteringOptions), off by default
+    // here; adds multiple_scattering_radiance (not with medium_box).
+    MultipleScatteringOptions multiple{.enabled = false};
+    int threads = 0;  // 0: all hardware threads (the table precompute's too)
 };
 
 // Throws RenderError naming the first bad field.

@@ -21,7 +21,7 @@
 // scattering of sunlight, planet shadow included) + the ground (Lambertian, albedo
 // from the scene, lit by the attenuated sun) seen through the view transmittance + the
 // sun disc (E(λ)·T(λ)/Ω_sun, uniform disc, box-filtered into pixels so its total
-// irradiance is right at any resolution), + with SkySettings::multiple_scattering the
+// irradiance is right at any resolution), + with SkySettings::multiple.enabled the
 // multiply-scattered light along the view ray and on the ground (multiple_scattering.hpp:
 // `multiple_scattering_radiance`, tables precomputed once per render).
 // The spectrum goes to linear Rec.709 by the
@@ -42,6 +42,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "airmass/atmosphere.hpp"
 #include "airmass/chapman.hpp"
 #include "airmass/image.hpp"
 #include "airmass/multiple_scattering.hpp"
@@ -84,10 +85,11 @@ struct SkySettings {
     int width = 2048;   // pixels over 360°
     int height = 1024;  // pixels over 180° (width/2 keeps pixels square)
     SkyRegion region = SkyRegion::full;
-    int view_samples = 16;                          // samples along each view ray
-    ChapmanMethod chapman = ChapmanMethod::airmass; // optical depth toward the sun
-    bool sun_disc = true;
-    int threads = 0;  // 0: all hardware threads
+    // View-ray quality (atmosphere.hpp EvalSettings: chapman, view_samples, sun_disc, ground).
+    // The sun disc is on by default here and box-filtered into pixels (render_sky; point-sampled
+    // by sky_radiance_rgb).
+    EvalSettings view{.sun_disc = true};
+    int threads = 0;  // 0: all hardware threads (the table precompute's too)
     // Sky grid (Blender's precomputed-texture idea, with its error measured by
     // `airmass report sky`): evaluate the sky on a grid over (view zenith angle, azimuth
     // from the sun) and interpolate every pixel from it (Catmull–Rom, sky_grid.hpp). By mirror symmetry the
@@ -99,16 +101,14 @@ struct SkySettings {
     // symmetry when it applies); otherwise every pixel is evaluated (as grid 0: the grid's
     // own limit, exact and cheaper). effective_sky_grid says which.
     int grid = -1;
-    // Multiple scattering (multiple_scattering.hpp), on by default: without it the sky is
-    // far too dark at twilight and in the Earth's shadow (docs/multiple_scattering.md). The
-    // tables are precomputed once per render_sky call, at the wavelengths the image uses,
-    // and the radiance is added wherever single scattering is evaluated (grid nodes or
-    // pixels). `multiple.threads` = 0 takes `threads`; `multiple.cancel` unset takes the
-    // render's cancel flag; `multiple.progress`, if set, is called besides the render's
-    // progress hook.
-    bool multiple_scattering = true;
-    MsSettings multiple{};
-    int multiple_samples = 32;  // quadrature intervals per view ray (as RenderSettings)
+    // Multiple scattering (multiple_scattering.hpp MultipleScatteringOptions: enabled, tables,
+    // view_samples), on by default: without it the sky is far too dark at twilight and in the
+    // Earth's shadow (docs/multiple_scattering.md). The tables are precomputed once per
+    // render_sky call, at the wavelengths the image uses, and the radiance is added wherever
+    // single scattering is evaluated (grid nodes or pixels). `multiple.tables.cancel` unset
+    // takes the render's cancel flag; `multiple.tables.progress`, if set, is called besides
+    // the render's progress hook.
+    MultipleScatteringOptions multiple{};
     // The multiple-scattering view (evaluator.hpp MsView): the tables are integrated along the
     // rays of a coarse sun-aligned grid of this many azimuth intervals and interpolated for
     // every grid node or pixel (the light is smooth in direction). 0: integrated along every
@@ -116,7 +116,9 @@ struct SkySettings {
     // ((M + 1) × 2 (M/2 + 1) for M intervals) than the render evaluates (the sky grid's nodes
     // when it is used, else the pixels); otherwise the tables are integrated along every
     // evaluated ray (as 0). effective_sky_multiple_grid says which. Error and cost:
-    // `airmass report sky`, docs/sky.md.
+    // `airmass report sky`, docs/sky.md. A knob of how one sky image samples the evaluator per
+    // observer and sun (Evaluator::ms_view), not of the evaluator or its tables, so it stays
+    // here beside `grid` (a render or `eval` has none).
     int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
@@ -138,7 +140,7 @@ int effective_sky_grid(const Scene& scene, const SkySettings& settings);
 int effective_sky_multiple_grid(const Scene& scene, const SkySettings& settings);
 
 // The multiple-scattering tables render_sky computes for `scene` and `settings` (the
-// atmosphere at the wavelengths the image uses; settings.multiple). They depend on neither
+// atmosphere at the wavelengths the image uses; settings.multiple.tables). They depend on neither
 // the sun nor the observer nor the image size, so callers that render many skies of one
 // scene (animations of the sun, reports, tests) compute them once and pass them below.
 // Progress goes to hooks.work_done in units of 1/1000 of the precompute; cancellable.
@@ -146,7 +148,7 @@ MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings
                                            const RenderHooks& hooks = {});
 
 // Renders the sky of `scene` (validated here) into a linear Rec.709 RGB image. With
-// settings.multiple_scattering, `tables` (from sky_multiple_scattering for the same scene
+// settings.multiple.enabled, `tables` (from sky_multiple_scattering for the same scene
 // and settings) are used if given, else computed here (progress and cancel through `hooks`).
 // Tables of another wavelength count or constituent set are rejected (SkyError).
 FloatImage render_sky(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks = {},
@@ -155,14 +157,15 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
 // A sky renderer for one atmosphere, for many suns and observers (an add-on's live preview
 // while the sun is dragged, animations of the sun). Made once: the scene's atmosphere is
 // compiled at the image's wavelengths and the multiple-scattering tables computed (or taken
-// from `tables`, or from settings.multiple.store) — neither depends on the sun, the observer
+// from `tables`, or from settings.multiple.tables.store) — neither depends on the sun, the observer
 // or the image size (table_store.cpp: the tables' key holds neither). Then each render()
 // pays only for the sun direction: the multiple-scattering view, the sky grid and the pixels.
 //
 // render() takes its own settings, which may differ from the session's in everything that
-// neither the atmosphere nor the tables depend on: width, height, region, view_samples,
-// sun_disc, threads, grid, multiple_samples, multiple_grid. A different chapman,
-// multiple_scattering or table setting (settings.multiple) is a SkyError naming the field.
+// neither the atmosphere nor the tables depend on: width, height, region, view.view_samples,
+// view.sun_disc, threads, grid, multiple.view_samples, multiple_grid. A different
+// view.chapman, view.ground, multiple.enabled or table setting (multiple.tables) is a
+// SkyError naming the field.
 // render() is const and thread-safe (several renders of one session may run at once); the
 // session must outlive them.
 class SkySession {

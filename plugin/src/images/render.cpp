@@ -46,9 +46,9 @@ void validate(const RenderSettings& s) {
         if (!(v >= lo && v <= hi))
             throw RenderError(std::string(field) + " = " + message_number(v) + ": must be in [" + message_number(lo) + ", " + message_number(hi) + "]");
     };
-    range("samples", s.view_samples, 1, 65536);
+    range("samples", s.view.view_samples, 1, 65536);
     range("threads", s.threads, 0, 4096);
-    range("multiple_samples", s.multiple_samples, 1, 65536);
+    range("multiple_samples", s.multiple.view_samples, 1, 65536);
     if (s.camera) validate(*s.camera);
     if (s.color == ColorModel::renderer_rgb)
         for (int c = 0; c < 3; ++c) range("rgb_wavelengths_nm", s.rgb_wavelengths_nm[c], 360.0, 830.0);
@@ -57,10 +57,10 @@ void validate(const RenderSettings& s) {
         if (!all_finite(b.min_m) || !all_finite(b.max_m) || !(b.min_m.x < b.max_m.x && b.min_m.y < b.max_m.y &&
                                                        b.min_m.z < b.max_m.z))
             throw RenderError("medium_box: must be finite with min < max on every axis");
-        if (s.multiple_scattering)
+        if (s.multiple.enabled)
             throw RenderError("multiple_scattering: not available with medium_box (the tables assume the whole shell)");
     }
-    if (s.multiple_scattering) validate(s.multiple);
+    if (s.multiple.enabled) validate(s.multiple.tables);
 }
 
 Scene renderer_matched_scene(const Scene& scene, MatchedRenderer renderer) {
@@ -393,11 +393,8 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
             to_rgb.matrix[c][c] = 1.0;
         }
     }
-    EvalSettings eval;
-    eval.chapman = settings.chapman;
-    eval.view_samples = settings.view_samples;
-    eval.sun_disc = settings.sun_disc && !settings.medium_box;
-    eval.ground = settings.ground;
+    EvalSettings eval = settings.view;
+    eval.sun_disc = settings.view.sun_disc && !settings.medium_box;
     std::vector<double> wavelengths = to_rgb.wavelengths_nm;
     // Wavelengths in any order (e.g. 680, 550, 440 nm for R, G, B): channel c is wavelength c.
     Atmosphere compiled = compile_atmosphere(scene, wavelengths, eval);
@@ -421,9 +418,8 @@ FloatImage render_camera(const Scene& scene_in, const RenderSettings& settings, 
 
     // The evaluator (with the tables when multiple scattering is on) answers every ray of
     // the whole shell; a medium cut to a box is integrated by box_radiance below.
-    const Evaluator evaluator = make_evaluator(
-        std::move(compiled), {settings.multiple_scattering, settings.multiple, settings.multiple_samples},
-        settings.threads, RenderHooks{hooks.cancel, {}});
+    const Evaluator evaluator =
+        make_evaluator(std::move(compiled), settings.multiple, settings.threads, RenderHooks{hooks.cancel, {}});
     const Atmosphere& atm = evaluator.atmosphere();
     std::optional<BoxContext> box;
     if (settings.medium_box) box.emplace(atm, *settings.medium_box, sun);
@@ -491,10 +487,10 @@ ImageMetadata render_metadata(const Scene& scene, const RenderSettings& settings
     const CameraModel cam = settings.camera ? *settings.camera : camera_from_scene(scene, settings.projection);
     nlohmann::json j;
     j["camera"] = nlohmann::json::parse(camera_to_json(cam, 1.0));
-    j["view_samples"] = settings.view_samples;
-    j["chapman"] = std::string(chapman_method_name(settings.chapman));
-    j["sun_disc"] = settings.sun_disc;
-    j["ground"] = settings.ground;
+    j["view_samples"] = settings.view.view_samples;
+    j["chapman"] = std::string(chapman_method_name(settings.view.chapman));
+    j["sun_disc"] = settings.view.sun_disc;
+    j["ground"] = settings.view.ground;
     j["renderer_matched"] = settings.renderer_matched;
     if (settings.renderer_matched)
         j["matched_renderer"] = settings.matched_renderer == MatchedRenderer::povray ? "povray" : "blender";
@@ -508,7 +504,7 @@ ImageMetadata render_metadata(const Scene& scene, const RenderSettings& settings
         const auto& b = *settings.medium_box;
         j["medium_box_m"] = {b.min_m.x, b.min_m.y, b.min_m.z, b.max_m.x, b.max_m.y, b.max_m.z};
     }
-    j["multiple_scattering"] = settings.multiple_scattering;
+    j["multiple_scattering"] = settings.multiple.enabled;
     j["sun_direction"] = [&] {
         const glm::dvec3 s = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
         return std::array<double, 3>{s.x, s.y, s.z};

@@ -106,16 +106,16 @@ void validate(const SkySettings& s) {
     };
     range("width", s.width, 4, kSkyMaxDimension);
     range("height", s.height, 2, kSkyMaxDimension);
-    range("samples", s.view_samples, 1, kSkyMaxViewSamples);
+    range("samples", s.view.view_samples, 1, kSkyMaxViewSamples);
     range("threads", s.threads, 0, 4096);
     range("grid", s.grid, -1, kSkyMaxGrid);
     if (s.grid > 0 && s.grid < 4) throw SkyError("grid = " + std::to_string(s.grid) + ": must be -1 (auto), 0 (off) or in [4, " + std::to_string(kSkyMaxGrid) + "]");
-    range("multiple_samples", s.multiple_samples, 1, kSkyMaxMultipleSamples);
+    range("multiple_samples", s.multiple.view_samples, 1, kSkyMaxMultipleSamples);
     range("multiple_grid", s.multiple_grid, 0, kSkyMaxGrid);
     if (s.multiple_grid == 1) throw SkyError("multiple_grid = 1: must be 0 (every ray) or in [2, " + std::to_string(kSkyMaxGrid) + "]");
-    if (s.multiple_scattering) {
+    if (s.multiple.enabled) {
         try {
-            validate(s.multiple);
+            validate(s.multiple.tables);
         } catch (const std::invalid_argument& e) {
             // "multiple scattering: max_order = 1: …" → "multiple.max_order = 1: …" (the field's name here).
             std::string what = e.what();
@@ -160,10 +160,6 @@ struct FrameContext {
     const Atmosphere& atmosphere() const { return evaluator.atmosphere(); }
 };
 
-MultipleScatteringOptions ms_options(const SkySettings& s) {
-    return {s.multiple_scattering, s.multiple, s.multiple_samples};
-}
-
 SkyInputs prepare(const Scene& scene, const SkySettings& settings) {
     validate(scene);
     validate(settings);
@@ -178,11 +174,8 @@ SkyInputs prepare(const Scene& scene, const SkySettings& settings) {
         for (int c = 0; c < 3; ++c) in.to_rgb.matrix[c].push_back(full.matrix[c][i]);
     }
     if (in.to_rgb.size() == 0) throw SkyError("spectrum: no wavelength of the basis lies inside 360-830 nm");
-    EvalSettings eval;
-    eval.chapman = settings.chapman;
-    eval.view_samples = settings.view_samples;
+    EvalSettings eval = settings.view;
     eval.sun_disc = false;  // added below, box-filtered into pixels
-    eval.ground = true;
     in.atmosphere = compile_atmosphere(scene, in.to_rgb.wavelengths_nm, eval);
     in.sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
     in.altitude_m = scene.observer.altitude_m;
@@ -194,9 +187,9 @@ SkyInputs prepare(const Scene& scene, const SkySettings& settings) {
 SkyContext make_context(SkyInputs in, const SkySettings& settings, const RenderHooks& hooks,
                         std::shared_ptr<const MultipleScattering> tables, std::size_t units, std::size_t total) {
     std::shared_ptr<const MultipleScattering> shared;
-    if (tables && settings.multiple_scattering) shared = std::move(tables);
+    if (tables && settings.multiple.enabled) shared = std::move(tables);
     try {
-        return {make_evaluator(std::move(in.atmosphere), ms_options(settings), settings.threads, hooks, shared, units,
+        return {make_evaluator(std::move(in.atmosphere), settings.multiple, settings.threads, hooks, shared, units,
                                total),
                 std::move(in.to_rgb), in.sun, in.altitude_m};
     } catch (const std::invalid_argument& e) {
@@ -338,7 +331,7 @@ int grid_for(const glm::dvec3& sun, const SkySettings& settings) {
 // when it integrates fewer rays than the render evaluates (the grid's nodes, or the pixels),
 // else the tables are integrated along every evaluated ray.
 int ms_grid_for(const glm::dvec3& sun, const SkySettings& settings) {
-    const int M = settings.multiple_scattering ? settings.multiple_grid : 0;
+    const int M = settings.multiple.enabled ? settings.multiple_grid : 0;
     if (M == 0) return 0;
     const int G = grid_for(sun, settings);
     const double evaluated = G > 0 ? grid_rays(G, settings.region == SkyRegion::upper) : pixel_rays(sun, settings);
@@ -365,8 +358,7 @@ int effective_sky_multiple_grid(const Scene& scene, const SkySettings& settings)
 
 MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
     const SkyInputs in = prepare(scene, settings);
-    MultipleScatteringOptions options = ms_options(settings);
-    return *compute_tables(in.atmosphere, options, settings.threads, hooks, 1000, 1000);
+    return *compute_tables(in.atmosphere, settings.multiple, settings.threads, hooks, 1000, 1000);
 }
 
 namespace {
@@ -576,7 +568,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     }
     if (cancelled()) throw Cancelled("sky: cancelled");
 
-    if (settings.sun_disc) add_sun_disc(ctx, settings, image);
+    if (settings.view.sun_disc) add_sun_disc(ctx, settings, image);
     return image;
 }
 
@@ -585,7 +577,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
 struct SkySession::Impl {
     Scene scene;
     SkySettings settings;
-    Atmosphere atmosphere;  // compiled at the image's wavelengths with settings.chapman
+    Atmosphere atmosphere;  // compiled at the image's wavelengths with settings.view
     SpectrumToRgb to_rgb;
     std::shared_ptr<const MultipleScattering> tables;
     std::string table_key;  // ms_table_key of the tables (empty without multiple scattering)
@@ -598,12 +590,12 @@ SkySession::SkySession(const Scene& scene, const SkySettings& settings, const Re
     impl->scene = scene;
     impl->settings = settings;
     impl->to_rgb = std::move(in.to_rgb);
-    if (settings.multiple_scattering) {
+    if (settings.multiple.enabled) {
         // The evaluator's checks of given tables (SkyError names them), then the tables alone.
         SkyContext ctx = make_context(SkyInputs{in.atmosphere, impl->to_rgb, in.sun, in.altitude_m}, settings, hooks,
                                       std::move(tables), units, total);
         impl->tables = ctx.evaluator.shared_tables();
-        impl->table_key = ms_table_key(in.atmosphere, settings.multiple);
+        impl->table_key = ms_table_key(in.atmosphere, settings.multiple.tables);
     } else if (units > 0 && hooks.work_done) {
         hooks.work_done(units, total);
     }
@@ -629,22 +621,26 @@ FloatImage SkySession::render(const glm::dvec3& sun, double altitude_m, const Sk
                        std::to_string(sun.z) + "): must be a unit vector");
     if (!(std::isfinite(altitude_m) && altitude_m >= 0.0 && altitude_m <= 1e9))
         throw SkyError("observer.altitude_m = " + std::to_string(altitude_m) + ": must be in [0, 1e9]");
-    if (settings.chapman != s.settings.chapman)
-        throw SkyError(std::string("chapman = ") + std::string(chapman_method_name(settings.chapman)) +
-                       ": the session was made with " + std::string(chapman_method_name(s.settings.chapman)) +
+    if (settings.view.chapman != s.settings.view.chapman)
+        throw SkyError(std::string("chapman = ") + std::string(chapman_method_name(settings.view.chapman)) +
+                       ": the session was made with " + std::string(chapman_method_name(s.settings.view.chapman)) +
                        " (its atmosphere and tables depend on it); make another session");
-    if (settings.multiple_scattering != s.settings.multiple_scattering)
-        throw SkyError(std::string("multiple_scattering = ") + (settings.multiple_scattering ? "true" : "false") +
-                       ": the session was made with " + (s.settings.multiple_scattering ? "true" : "false") +
+    if (settings.view.ground != s.settings.view.ground)
+        throw SkyError(std::string("ground = ") + (settings.view.ground ? "true" : "false") +
+                       ": the session was made with " + (s.settings.view.ground ? "true" : "false") +
+                       " (its atmosphere and tables depend on it); make another session");
+    if (settings.multiple.enabled != s.settings.multiple.enabled)
+        throw SkyError(std::string("multiple_scattering = ") + (settings.multiple.enabled ? "true" : "false") +
+                       ": the session was made with " + (s.settings.multiple.enabled ? "true" : "false") +
                        "; make another session");
-    if (settings.multiple_scattering && ms_table_key(s.atmosphere, settings.multiple) != s.table_key)
+    if (settings.multiple.enabled && ms_table_key(s.atmosphere, settings.multiple.tables) != s.table_key)
         throw SkyError("multiple: the table settings differ from the session's (the tables depend on them); make "
                        "another session");
     // The per-render evaluator: the session's atmosphere with this render's view samples, the
     // session's tables shared (no copy, no precompute).
     Atmosphere atm = s.atmosphere;
-    set_view_samples(atm, settings.view_samples);
-    const Evaluator evaluator = s.tables ? Evaluator(std::move(atm), s.tables, settings.multiple_samples)
+    set_view_samples(atm, settings.view.view_samples);
+    const Evaluator evaluator = s.tables ? Evaluator(std::move(atm), s.tables, settings.multiple.view_samples)
                                          : Evaluator(std::move(atm));
     return render_frame(FrameContext{evaluator, s.to_rgb, sun, altitude_m}, settings, hooks);
 }
@@ -659,7 +655,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     const Horizon hz = Horizon::of(scene.planet.radius_m, scene.planet.atmosphere_top_m - scene.planet.radius_m,
                                    scene.observer.altitude_m);
     const std::size_t image_work = frame_work(settings, grid_for(sun, settings), hz);
-    const std::size_t ms_work = settings.multiple_scattering && !tables ? image_work : 0;
+    const std::size_t ms_work = settings.multiple.enabled && !tables ? image_work : 0;
     const std::size_t total_work = ms_work + image_work;
     const SkySession session(scene, settings, hooks, {std::shared_ptr<void>(), tables} /* not owned */, ms_work,
                              total_work);
@@ -673,7 +669,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
 std::vector<glm::dvec3> sky_radiance_rgb(const Scene& scene, const SkySettings& settings,
                                          std::span<const glm::dvec3> directions, const MultipleScattering* tables) {
     SkyInputs in = prepare(scene, settings);
-    in.atmosphere.settings.sun_disc = settings.sun_disc;  // point-sampled here
+    in.atmosphere.settings.sun_disc = settings.view.sun_disc;  // point-sampled here
     const SkyContext ctx = make_context(std::move(in), settings, {},
                                         {std::shared_ptr<void>(), tables} /* not owned */, 0, 0);
     const std::size_t nw = ctx.atmosphere().wavelength_count();
@@ -702,14 +698,15 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
     j["width"] = settings.width;
     j["height"] = settings.height;
     j["region"] = settings.region == SkyRegion::full ? "full" : "upper";
-    j["view_samples"] = settings.view_samples;
-    j["chapman"] = std::string(chapman_method_name(settings.chapman));
-    j["sun_disc"] = settings.sun_disc;
+    j["view_samples"] = settings.view.view_samples;
+    j["chapman"] = std::string(chapman_method_name(settings.view.chapman));
+    j["sun_disc"] = settings.view.sun_disc;
+    j["ground"] = settings.view.ground;
     j["grid"] = settings.grid;
     j["grid_used"] = effective_sky_grid(scene, settings);
-    j["multiple_scattering"] = settings.multiple_scattering;
-    if (settings.multiple_scattering) {
-        const MsSettings& m = settings.multiple;
+    j["multiple_scattering"] = settings.multiple.enabled;
+    if (settings.multiple.enabled) {
+        const MsSettings& m = settings.multiple.tables;
         nlohmann::ordered_json ms;
         ms["mode"] = std::string(ms_mode_name(m.mode));
         ms["parameterisation"] = std::string(ms_parameterisation_name(m.parameterisation));
@@ -731,7 +728,7 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
         ms["max_auto_order"] = m.max_auto_order;
         ms["geometric_tail"] = m.geometric_tail;
         ms["ray_samples"] = m.ray_samples;
-        ms["view_ray_samples"] = settings.multiple_samples;
+        ms["view_ray_samples"] = settings.multiple.view_samples;
         ms["view_grid"] = settings.multiple_grid;  // 0: integrated along every ray
         ms["view_grid_used"] = effective_sky_multiple_grid(scene, settings);
         j["multiple"] = ms;

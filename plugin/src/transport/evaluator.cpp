@@ -177,7 +177,7 @@ std::shared_ptr<const MultipleScattering> compute_tables(const Atmosphere& atmos
                                                          const RenderHooks& hooks, std::size_t units,
                                                          std::size_t total) {
     MsSettings m = options.tables;
-    if (m.threads == 0) m.threads = threads;
+    m.threads = threads;  // the consumer's one thread count
     if (!m.cancel) m.cancel = hooks.cancel;
     // Called from the calling thread only (multiple_scattering.hpp), so plain state is enough.
     std::size_t reported = 0;

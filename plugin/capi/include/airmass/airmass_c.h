@@ -172,7 +172,7 @@ typedef struct airmass_sky_options {
                                SkySettings::multiple_grid, default 32): 0 integrates every ray,
                                else in [2, 16384] */
     int32_t multiple_samples; /* quadrature intervals along each multiple-scattering view ray
-                               (SkySettings::multiple_samples, default 32), [1, 100000] */
+                               (SkySettings::multiple.view_samples, default 32), [1, 100000] */
 } airmass_sky_options;
 
 AIRMASS_C_API int32_t airmass_sky_options_init(airmass_sky_options* options); /* struct_size set first */
