@@ -242,6 +242,23 @@ def test_full_disk_keeps_the_previous_result(airmass_bin, tmp_path, writer):
 
 
 # ---- Ctrl-C and kill -9 in the middle of a write -------------------------------------------------
+def wait_stopped(pid, seconds=10):
+    """Waits until every thread of `pid` is in the stopped state (T) or the process has exited."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            states = []
+            for t in os.listdir(f"/proc/{pid}/task"):
+                with open(f"/proc/{pid}/task/{t}/stat") as f:
+                    states.append(f.read().rsplit(")", 1)[1].split()[0])
+        except FileNotFoundError:
+            return
+        if all(s in "Tt" for s in states) or any(s in "ZX" for s in states):
+            return
+        time.sleep(0.001)
+    pytest.fail(f"process {pid} did not stop within {seconds} s")
+
+
 def stopped_mid_write(airmass_bin, writer, d):
     """Runs the writer at growing sizes until it is caught (and stopped with SIGSTOP) while a
     temporary in `d` holds data. Returns (process, temporary name)."""
@@ -260,6 +277,11 @@ def stopped_mid_write(airmass_bin, writer, d):
                 except FileNotFoundError:
                     continue
                 proc.send_signal(signal.SIGSTOP)
+                # SIGSTOP is delivered asynchronously: until every thread is stopped the writer may
+                # still finish and rename the temporary (an uncompressed EXR is written in
+                # microseconds). Only a temporary that still exists once the process is stopped
+                # was caught in the middle.
+                wait_stopped(proc.pid)
                 if (d / name).exists():
                     print(f"{writer}: stopped at size level {level} writing {name}")
                     return proc, name
