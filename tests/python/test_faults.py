@@ -259,9 +259,11 @@ def wait_stopped(pid, seconds=10):
     pytest.fail(f"process {pid} did not stop within {seconds} s")
 
 
-def stopped_mid_write(airmass_bin, writer, d):
+def stopped_mid_write(airmass_bin, writer, d, before):
     """Runs the writer at growing sizes until it is caught (and stopped with SIGSTOP) while a
-    temporary in `d` holds data. Returns (process, temporary name)."""
+    temporary in `d` holds data. Returns (process, temporary name). A run that finished before
+    it was caught has replaced the results: `before` (the previous result) is put back, so
+    that `d` holds it again when the caught run starts."""
     for level in (1, 2, 3):
         proc = subprocess.Popen([str(airmass_bin), *map(str, WRITERS[writer](d, level))], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
@@ -287,6 +289,10 @@ def stopped_mid_write(airmass_bin, writer, d):
                     return proc, name
                 proc.send_signal(signal.SIGCONT)
         proc.communicate(timeout=120)
+        for name in set(snapshot(d)) - set(before):
+            os.remove(d / name)
+        for name, data in before.items():
+            (d / name).write_bytes(data)
     pytest.fail(f"{writer}: no write caught in the middle at any size")
 
 
@@ -319,7 +325,7 @@ def caught_mid_write(airmass_bin, writer, tmp_path):
     d = tmp_path / "out"
     d.mkdir()
     before = previous_result(airmass_bin, writer, d)
-    proc, temp = stopped_mid_write(airmass_bin, writer, d)
+    proc, temp = stopped_mid_write(airmass_bin, writer, d, before)
     target, pid = destination_of(temp)
     assert pid == proc.pid
     return d, before, proc, temp, target
