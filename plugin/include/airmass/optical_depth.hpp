@@ -91,6 +91,15 @@ inline bool in_planet_shadow(const PlanetRay<double>& sun_ray) {
 bool sun_masses(const Atmosphere& atmosphere, double altitude_m, ZenithAngle<double> sun_zenith,
                 std::span<double> mass);
 
+// sun_masses for n points at once (sun_masses is this for one point): the exponential
+// constituents' Chapman terms in batches of the points (chapman_rescaled_batch, four points per
+// AVX2 instruction). lit[k] is sun_masses' result for point k; mass[k · nc + i] its masses
+// (nc = constituents.size()), left as they were where lit[k] is 0. Throws
+// std::invalid_argument when the spans' sizes disagree.
+void sun_masses_batch(const Atmosphere& atmosphere, std::span<const double> altitude_m,
+                      std::span<const ZenithAngle<double>> sun_zenith, std::span<double> mass,
+                      std::span<unsigned char> lit);
+
 // T_sun(λ) = exp(−Σ_i σt_i(λ) m_i) for those masses; 0 in the shadow (returns false there).
 bool sun_transmittance(const Atmosphere& atmosphere, double altitude_m, ZenithAngle<double> sun_zenith,
                        std::span<double> transmittance_out);

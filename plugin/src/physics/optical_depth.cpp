@@ -8,6 +8,8 @@
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include <glm/geometric.hpp>
 
@@ -208,39 +210,82 @@ void transmittance_between(const Atmosphere& atm, Vec3<double> from_m, Vec3<doub
     transmittance(atm, PlanetRay<double>::from_vectors(atm.planet_radius_m, from_m, to_m - from_m), 0.0, length, out);
 }
 
-bool sun_masses(const Atmosphere& atm, double h, ZenithAngle<double> chi, std::span<double> mass) {
-    const double R = atm.planet_radius_m, top = atm.top_altitude_m;
-    const PlanetRay<double> sun_ray{R, h, chi};
-    if (in_planet_shadow(sun_ray)) return false;
-    if (!(h < top)) {  // from above the top (a camera or lamp in space): the closed forms clip at the top
-        for (std::size_t i = 0; i < atm.constituents.size(); ++i)
-            mass[i] = profile_segment_mass(atm.constituents[i].profile, atm.settings.chapman, sun_ray, top, 0.0,
-                                           kInf<double>);
-        return true;
+namespace {
+
+// sun_masses_batch for at most kSunBlock points (stack scratch, no allocation).
+constexpr std::size_t kSunBlock = 64;
+
+void sun_masses_block(const Atmosphere& atm, const double* h, const ZenithAngle<double>* chi, std::size_t n,
+                      double* mass, unsigned char* lit) {
+    const std::size_t nc = atm.constituents.size();
+    const double R = atm.planet_radius_m, top = atm.top_altitude_m, r_top = R + top;
+    const ChapmanMethod method = atm.settings.chapman;
+    // Per point: shadow, the ray's exit through the top sphere (s at the exit = √D of the top
+    // sphere, geometry.hpp) for the top's Chapman term.
+    double cos_chi[kSunBlock], sin_chi[kSunBlock], exit_cos[kSunBlock], exit_sin[kSunBlock], x[kSunBlock],
+        out[kSunBlock];
+    bool above[kSunBlock];
+    for (std::size_t k = 0; k < n; ++k) {
+        lit[k] = !in_planet_shadow(PlanetRay<double>{R, h[k], chi[k]});
+        above[k] = !(h[k] < top);
+        cos_chi[k] = chi[k].cos_chi;
+        sin_chi[k] = chi[k].sin_chi;
+        const double r = R + h[k], s0 = r * chi[k].cos_chi;
+        const double D = (top - h[k]) * (2.0 * R + top + h[k]) + s0 * s0;
+        exit_cos[k] = std::min(std::sqrt(std::max(D, 0.0)) / r_top, 1.0);
+        exit_sin[k] = std::min(r * chi[k].sin_chi / r_top, 1.0);
     }
-    const double r = R + h, mu = chi.cos_chi;
-    ZenithAngle<double> exit{1.0, 0.0};
-    bool have_exit = false;
-    for (std::size_t i = 0; i < atm.constituents.size(); ++i) {
-        const auto& p = atm.constituents[i].profile;
+    double m[kSunBlock];
+    for (std::size_t i = 0; i < nc; ++i) {
+        const CompiledProfile& p = atm.constituents[i].profile;
         if (p.kind != CompiledProfile::Kind::exponential) {
-            mass[i] = profile_segment_mass(p, atm.settings.chapman, sun_ray, top, 0.0, kInf<double>);
+            for (std::size_t k = 0; k < n; ++k)
+                if (lit[k] && !above[k])
+                    mass[k * nc + i] =
+                        profile_segment_mass(p, method, PlanetRay<double>{R, h[k], chi[k]}, top, 0.0, kInf<double>);
             continue;
         }
-        double m = exponential_ray_mass(atm.settings.chapman, R, p.scale_height_m, p.reference_altitude_m, h, chi);
+        // H·Ch(X + h, χ)·e^(−h) at the point (Schüler's Ch_h = Golubev's C_r, exponential_ray_mass)
+        // less, where the top matters, the same at the ray's exit.
+        const double H = p.scale_height_m, X = (R + p.reference_altitude_m) / H;
+        for (std::size_t k = 0; k < n; ++k) x[k] = (h[k] - p.reference_altitude_m) / H;
+        chapman_rescaled_batch<double>(method, X, {x, n}, {cos_chi, n}, {sin_chi, n}, {out, n});
+        for (std::size_t k = 0; k < n; ++k) m[k] = H * out[k];
         if (p.truncate_at_top) {
-            if (!have_exit) {  // s at the exit = √D of the top sphere (geometry.hpp)
-                const double s0 = r * mu;
-                const double D = (top - h) * (2.0 * R + top + h) + s0 * s0;
-                const double r_top = R + top;
-                exit = {std::min(std::sqrt(std::max(D, 0.0)) / r_top, 1.0), std::min(r * chi.sin_chi / r_top, 1.0)};
-                have_exit = true;
-            }
-            m -= exponential_ray_mass(atm.settings.chapman, R, p.scale_height_m, p.reference_altitude_m, top, exit);
+            std::fill(x, x + n, (top - p.reference_altitude_m) / H);
+            chapman_rescaled_batch<double>(method, X, {x, n}, {exit_cos, n}, {exit_sin, n}, {out, n});
+            for (std::size_t k = 0; k < n; ++k) m[k] -= H * out[k];
         }
-        mass[i] = std::max(m, 0.0);
+        for (std::size_t k = 0; k < n; ++k)
+            if (lit[k] && !above[k]) mass[k * nc + i] = std::max(m[k], 0.0);
     }
-    return true;
+    // From above the top (a camera or lamp in space): the closed forms clip at the top.
+    for (std::size_t k = 0; k < n; ++k)
+        if (lit[k] && above[k])
+            for (std::size_t i = 0; i < nc; ++i)
+                mass[k * nc + i] = profile_segment_mass(atm.constituents[i].profile, method,
+                                                        PlanetRay<double>{R, h[k], chi[k]}, top, 0.0, kInf<double>);
+}
+
+}  // namespace
+
+void sun_masses_batch(const Atmosphere& atm, std::span<const double> altitude_m,
+                      std::span<const ZenithAngle<double>> sun_zenith, std::span<double> mass,
+                      std::span<unsigned char> lit) {
+    const std::size_t n = altitude_m.size(), nc = atm.constituents.size();
+    if (sun_zenith.size() != n || lit.size() != n || mass.size() != n * nc)
+        throw std::invalid_argument("sun_masses_batch: spans of " + std::to_string(n) + " points (masses: " +
+                                    std::to_string(n * nc) + ")");
+    for (std::size_t b = 0; b < n; b += kSunBlock) {
+        const std::size_t m = std::min(kSunBlock, n - b);
+        sun_masses_block(atm, altitude_m.data() + b, sun_zenith.data() + b, m, mass.data() + b * nc, lit.data() + b);
+    }
+}
+
+bool sun_masses(const Atmosphere& atm, double h, ZenithAngle<double> chi, std::span<double> mass) {
+    unsigned char lit = 0;
+    sun_masses_block(atm, &h, &chi, 1, mass.data(), &lit);
+    return lit != 0;
 }
 
 bool sun_transmittance(const Atmosphere& atm, double h, ZenithAngle<double> chi, std::span<double> out) {
