@@ -49,6 +49,7 @@ int plain_stop_orders() {
     static const int k = [] {
         MsSettings s;
         s.geometric_tail = false;
+        s.tolerance = 1e-3;  // the rule's tolerance before 2026-12-03
         return precompute_multiple_scattering(earth48(), s).highest_order;
     }();
     return k;

@@ -464,7 +464,7 @@ TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
     s.width = 15;
     EXPECT_EQ(effective_sky_grid(scene, s), 0);
     s.region = SkyRegion::full;
-    // The default (auto, 128: 16 770 nodes) on a 2048 × 1024 image, and every pixel at 128 × 64.
+    // The default (auto, 96: 9 506 nodes) on a 2048 × 1024 image, and every pixel at 128 × 64.
     s.grid = -1;
     s.width = 2048, s.height = 1024;
     EXPECT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);

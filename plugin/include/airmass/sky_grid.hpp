@@ -108,7 +108,7 @@ struct SkyGrid {
         return values.data() + (std::size_t(row) * columns() + col) * channels;
     }
 
-    // Bilinear weights of a direction given by its zenith angle θ and azimuth φ: false for a
+    // The cell (row and column, and the fractions in them) of a direction given by its zenith angle θ and azimuth φ: false for a
     // direction that misses the atmosphere (nothing to interpolate).
     struct Cell {
         int r0, r1, c0;

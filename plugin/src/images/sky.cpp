@@ -532,7 +532,8 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                                 grid.interpolate_line(line, cs.cols, cs.w, v);
                                 float* px = image.at(x, y);
                                 for (int ch = 0; ch < 3; ++ch)
-                                    px[ch] = static_cast<float>(std::max(v[ch] * (1.0 - T) + v[3 + ch] * T, 0.0));
+                                    px[ch] = static_cast<float>(std::max(v[ch], 0.0) * (1.0 - T) +
+                                                                std::max(v[3 + ch], 0.0) * T);  // a cubic's overshoot is no light
                             }
                         }
                     }

@@ -4,6 +4,7 @@
 #include "airmass/single_scattering.hpp"
 
 #include <algorithm>
+#include <array>
 #include <boost/math/quadrature/gauss_kronrod.hpp>
 #include <cmath>
 #include <limits>
