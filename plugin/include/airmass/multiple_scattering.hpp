@@ -112,7 +112,7 @@ struct MsSettings {
     //     total S_K = Σ_{k≤K} L^k + L^K q/(1 − q), q = L^K/L^{K−1} summed over c's nodes, changes
     //     by less than `tolerance` of itself from S_{K−1}. The orders fall geometrically (ratio
     //     0.5–0.7 in the presets), so S_K settles in fewer orders than the plain sum does (Earth
-    //     at 3 wavelengths: 6 instead of 11), within 0.06 % of the converged sum down to sun
+    //     at 48 wavelengths: 8 instead of 11), within 0.06 % of the converged sum down to sun
     //     −12° (docs/multiple_scattering.md). The tail's q is likewise per sun-zenith node;
     //   without it — stop after the first order whose radiance adds less than `tolerance` of the
     //     total so far (over all nodes).
