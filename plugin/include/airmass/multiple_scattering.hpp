@@ -122,8 +122,14 @@ struct MsSettings {
     // Add the geometric remainder Σ_{k>K} ≈ G^K q/(1 − q), q the per-wavelength ratio of the
     // last two orders (≥ 3 orders computed).
     bool geometric_tail = true;
-    // Quadrature intervals along each table ray (transport).
-    int ray_samples = 16;
+    // Quadrature intervals along each table ray: for order 1 (the sunlight, which changes
+    // fastest along a ray at twilight; transport_order1) and for the transport of every later
+    // order. Their error against 128 for both (`bench_ms`: earth, 48 λ, 252 view rays from the
+    // ground to 400 km, sun 60° … −12°; |Δ multiple| / total; docs/multiple_scattering.md):
+    // 16 / 16 with order 1 at each interval's midpoint (before 2026-12-03) 7.3 % p95, 20 % max;
+    // 32 / 8 2.2 % p95, 4.4 % max, and 12 % less CPU time.
+    int order1_ray_samples = 32;
+    int ray_samples = 8;
     // Sun transmittance table used by order 1 (altitude × sun zenith nodes).
     int transmittance_altitude = 32;
     int transmittance_sun = 128;

@@ -17,6 +17,9 @@
 // depth (T = 0).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <span>
 
 #include "airmass/atmosphere.hpp"
@@ -81,6 +84,41 @@ inline constexpr double kShadowTolerance_m = 1e-6;
 // Whether `sun_ray` (from a point toward the sun) passes through the planet.
 inline bool in_planet_shadow(const PlanetRay<double>& sun_ray) {
     return sun_ray.zenith.cos_chi < 0.0 && sun_ray.periapsis_altitude_m() < -kShadowTolerance_m;
+}
+
+// The part of a view line in Earth's shadow, [t0, t1] in metres along `view` (empty when
+// t1 ≤ t0; ±inf when unbounded): behind the planet (dot(P, sun) < 0) and within R of the
+// shadow's axis, |P × sun|² = |P|² − dot(P, sun)² < R², with the same tolerance as
+// in_planet_shadow. origin_dot_sun_m = dot(origin, sun) (origin from the planet's centre),
+// view_dot_sun = dot(view, sun). With P = O + t v: A t² + 2 B t + C < 0, A = 1 − v_s²,
+// B = r0 mu − o_s v_s, C = r0² − o_s² − R² = h0 (2R + h0) − o_s².
+struct ShadowSpan {
+    double t0 = 0.0, t1 = 0.0;
+};
+inline ShadowSpan earth_shadow_span(const PlanetRay<double>& view, double origin_dot_sun_m, double view_dot_sun) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    const double R = view.planet_radius_m, h0 = view.altitude_m, o_s = origin_dot_sun_m, v_s = view_dot_sun;
+    const double A = (1.0 - v_s) * (1.0 + v_s);
+    const double B = view.periapsis_offset_m() - o_s * v_s;
+    const double C = h0 * (2.0 * R + h0) - o_s * o_s + 2.0 * R * kShadowTolerance_m;  // radius R − tol
+    double c0, c1;
+    if (A < 1e-15) {  // looking along the shadow axis: the distance to it is constant
+        if (!(C < 0.0)) return {};
+        c0 = -inf;
+        c1 = inf;
+    } else {
+        const double disc = B * B - A * C;
+        if (!(disc > 0.0)) return {};
+        const double q = -(B + std::copysign(std::sqrt(disc), B));
+        const double x0 = q / A, x1 = q != 0.0 ? C / q : -x0;
+        c0 = std::min(x0, x1);
+        c1 = std::max(x0, x1);
+    }
+    // half-space behind the planet: o_s + t v_s < 0
+    if (v_s > 0.0) c1 = std::min(c1, -o_s / v_s);
+    else if (v_s < 0.0) c0 = std::max(c0, -o_s / v_s);
+    else if (!(o_s < 0.0)) return {};
+    return {c0, c1};
 }
 
 // Masses of every constituent along the sun ray from a point at `altitude_m` whose sun

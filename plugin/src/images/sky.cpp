@@ -729,6 +729,7 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
         ms["max_auto_order"] = m.max_auto_order;
         ms["geometric_tail"] = m.geometric_tail;
         ms["ray_samples"] = m.ray_samples;
+        ms["order1_ray_samples"] = m.order1_ray_samples;
         ms["view_ray_samples"] = settings.multiple.view_samples;
         ms["view_grid"] = settings.multiple_grid;  // 0: integrated along every ray
         ms["view_grid_used"] = effective_sky_multiple_grid(scene, settings);

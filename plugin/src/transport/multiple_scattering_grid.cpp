@@ -73,6 +73,8 @@ void validate(const MsSettings& s) {
     require(s.max_auto_order >= 2 && s.max_auto_order <= 1000, "max_auto_order", s.max_auto_order,
             "must be in [2, 1000]");
     require(s.ray_samples >= 1 && s.ray_samples <= 100000, "ray_samples", s.ray_samples, "must be in [1, 100000]");
+    require(s.order1_ray_samples >= 1 && s.order1_ray_samples <= 100000, "order1_ray_samples", s.order1_ray_samples,
+            "must be in [1, 100000]");
     require(s.transmittance_altitude >= 2 && s.transmittance_altitude <= 100000, "transmittance_altitude",
             s.transmittance_altitude, "must be in [2, 100000]");
     require(s.transmittance_sun >= 2 && s.transmittance_sun <= 100000, "transmittance_sun", s.transmittance_sun,

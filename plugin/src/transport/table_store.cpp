@@ -26,7 +26,9 @@ extern const char* const kSourceDigest;
 namespace {
 
 constexpr char kMagic[8] = {'A', 'M', 'S', 'T', 'B', 'L', 0, 0};
-constexpr std::uint32_t kFormat = 3;  // 2: MsOrderInfo::tail_corrected_change; 3: repeats_after_order
+// 2: MsOrderInfo::tail_corrected_change; 3: repeats_after_order; 4: order 1's own ray samples
+// (the key changes with them; the format, because the values of every table do)
+constexpr std::uint32_t kFormat = 4;
 constexpr std::uint32_t kByteOrderMark = 0x01020304u;
 
 class Writer {
@@ -154,6 +156,7 @@ std::string ms_table_key(const Atmosphere& atm, const MsSettings& s) {
     w.put(s.max_auto_order);
     w.put(static_cast<std::uint8_t>(s.geometric_tail));
     w.put(s.ray_samples);
+    w.put(s.order1_ray_samples);
     w.put(s.transmittance_altitude);
     w.put(s.transmittance_sun);
     w.put(s.phase_subsamples);
