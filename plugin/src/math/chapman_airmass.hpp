@@ -165,27 +165,28 @@ inline double airmass_exp_neg(double d) {
     return p * std::bit_cast<double>((1023ull - kbits) << 52);
 }
 
-// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Horner in t on the four
-// groups of u-coefficients at once (one 4-double vector each: four loads, three vector FMAs),
-// then Horner in u on the four lanes. GCC and Clang vector extensions: pairs of SSE2 registers in
-// baseline code (the scalar path and the baseline batch kernel).
+// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Estrin's scheme in t on
+// the four groups of u-coefficients at once, then in u: two dependent multiply-adds each way
+// instead of three. On 2-double vectors (one SSE2 register each; GCC and Clang vector
+// extensions): a 4-double vector in baseline code is a register pair, and GCC built its splat of
+// t through the stack, two 8-byte stores read back by one 16-byte load, a failed store forwarding
+// that was half of the scalar path's time (perf annotate).
 #if defined(__GNUC__) || defined(__clang__)
 #define AIRMASS_CHAPMAN_VECTORS 1
-typedef double AirmassV4 __attribute__((vector_size(32)));
-inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+typedef double AirmassV4 __attribute__((vector_size(32)));  // the baseline batch kernel's lanes
+typedef double AirmassV2 __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline double airmass_read(const double* coefficients, int cell, double t, double u) {
     const double* c = coefficients + cell;
-    AirmassV4 g0, g1, g2, g3;
-    std::memcpy(&g0, c, sizeof g0);
-    std::memcpy(&g1, c + 4, sizeof g1);
-    std::memcpy(&g2, c + 8, sizeof g2);
-    std::memcpy(&g3, c + 12, sizeof g3);
-    // Estrin's scheme in both directions: two dependent FMAs each instead of three.
-    const AirmassV4 col = (g0 + g1 * t) + (g2 + g3 * t) * (t * t);
-    return (col[0] + col[1] * u) + (col[2] + col[3] * u) * (u * u);
+    AirmassV2 g[8];
+    std::memcpy(g, c, sizeof g);
+    const AirmassV2 tv{t, t}, t2{t * t, t * t};
+    const AirmassV2 lo = (g[0] + g[2] * tv) + (g[4] + g[6] * tv) * t2;  // coefficients of u^0, u^1
+    const AirmassV2 hi = (g[1] + g[3] * tv) + (g[5] + g[7] * tv) * t2;  // of u^2, u^3
+    return (lo[0] + lo[1] * u) + (hi[0] + hi[1] * u) * (u * u);
 }
 #else
 #define AIRMASS_CHAPMAN_VECTORS 0
-inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+[[gnu::always_inline]] inline double airmass_read(const double* coefficients, int cell, double t, double u) {
     const double* c = coefficients + cell;
     double col[4];
     for (int b = 0; b < 4; ++b) col[b] = (c[b] + c[4 + b] * t) + (c[8 + b] + c[12 + b] * t) * (t * t);
