@@ -194,16 +194,22 @@ typedef double AirmassV2 __attribute__((vector_size(16)));
 }
 #endif
 
-// ... and the v = 0 column at t0 in the cell at `cell0`.
-inline double airmass_read_column0(const double* coefficients, int cell0, double t0) {
-    const double* c = coefficients + cell0;
-    return (c[0] + c[4] * t0) + (c[8] + c[12] * t0) * (t0 * t0);
+// ... and the v = 0 column at t0 in cell i0 along w, from the column's own copy (airmass_column0).
+inline double airmass_read_column0(const double* column0, int i0, double t0) {
+    const double* c = column0 + 4 * i0;
+    return (c[0] + c[1] * t0) + (c[2] + c[3] * t0) * (t0 * t0);
 }
+
+// The v = 0 column's cubics contiguous, 4 doubles per cell along w (c[0], c[4], c[8], c[12] of cell
+// (i, 0)): 2 KB that stay in L1. In the table the column's cells are (n_v − 1) · 128 bytes = 8 KB
+// apart, so all of them fall in one set of a 48 KB 12-way L1 and evict each other; the reads of
+// Ch∥(x0) below the horizon missed L1 every time. Built once from the table (chapman.cpp).
+const double* airmass_column0();
 
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
 // root, one division, one table read); below, all of stage 1.
 template <class T>
-inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T mu_in, T s_in) {
+inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const double* column0, T x_in, T mu_in, T s_in) {
     const double x = x_in, mu = mu_in;
     if (mu >= 0.0) {
         const double sx = std::sqrt(x);
@@ -238,9 +244,8 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
     const double v_raw = m * (1.0 + Y) / b;
     const double v = v_raw < 1.0 ? v_raw : 1.0;
     const double base = c / q;
-    const double inv0 = 1.0 / (a0 * sp);
-    const double w0 = sp * inv0;
-    const double d = x * m * m * a0 * inv0;
+    const double w0 = 1.0 / a0;
+    const double d = x * m * m / sp;  // not after √(x s): the exp's chain starts at once
     const int n_w = table.n_w, n_v = table.n_v;
     const double sw = w * (n_w - 1), sv = v * (n_v - 1), sw0 = w0 * (n_w - 1);
     int iw = static_cast<int>(sw), iv = static_cast<int>(sv), iw0 = static_cast<int>(sw0);
@@ -248,7 +253,7 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
     iv = iv < n_v - 2 ? iv : n_v - 2;
     iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
     const double r = airmass_read(table.coefficients, (iw * (n_v - 1) + iv) * 16, sw - iw, sv - iv);
-    const double h = airmass_read_column0(table.coefficients, iw0 * (n_v - 1) * 16, sw0 - iw0);
+    const double h = airmass_read_column0(column0, iw0, sw0 - iw0);
     // The reflection identity in scaled form: mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d).
     return {static_cast<T>(2.0 * airmass_base_horizontal(sx0) * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
 }

@@ -134,14 +134,14 @@ HWY_INLINE V read(const double* coefficients, const int32_t* o, const double* t,
     return hn::MulAdd(hn::MulAdd(hn::MulAdd(C3, u, C2), u, C1), u, C0);
 }
 
-// ... and the v = 0 column (u = 0), c[0] + c[4] t + c[8] t² + c[12] t³, per lane in scalars (a
-// quarter of the cell).
-HWY_INLINE V read_column0(const double* coefficients, const int32_t* o, const double* t) {
+// ... and the v = 0 column (u = 0), c[0] + c[4] t + c[8] t² + c[12] t³, per lane in scalars from
+// the column's own copy (airmass_column0: 4 doubles per cell, in L1), o[k] = 4 · cell.
+HWY_INLINE V read_column0(const double* column0, const int32_t* o, const double* t) {
     HWY_ALIGN double h[4];
     for (int k = 0; k < 4; ++k) {
-        const double* c = coefficients + o[k];
+        const double* c = column0 + o[k];
         const double tk = t[k];
-        h[k] = (c[0] + c[4] * tk) + (c[8] + c[12] * tk) * (tk * tk);
+        h[k] = (c[0] + c[1] * tk) + (c[2] + c[3] * tk) * (tk * tk);
     }
     return hn::Load(DD(), h);
 }
@@ -185,7 +185,7 @@ HWY_INLINE void stage_a(const AirmassTable& table, V x, V mu, V s, Chunk& ch, si
         V t0;
         const V iw0 = cell(hn::Mul(w0, wscale), n_w, t0);
         hn::Store(t0, dd, ch.t0 + l);
-        offsets(hn::Mul(iw0, row), ch.off0 + l);
+        offsets(hn::Mul(iw0, hn::Set(dd, 4.0)), ch.off0 + l);
         const V c0 = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx0, one);
         const V d = hn::Mul(hn::Mul(hn::Mul(x, hn::Mul(m, m)), hn::Mul(D, a0)), inv);
         hn::Store(hn::IfThenElseZero(below, hn::Add(c0, c0)), dd, ch.factor0 + l);
@@ -211,13 +211,13 @@ HWY_INLINE void stage_a(const AirmassTable& table, V x, V mu, V s, Chunk& ch, si
 }
 
 // Stage b of block j: the table reads and the mantissa.
-HWY_INLINE V stage_b(const AirmassTable& table, const Chunk& ch, size_t j) {
+HWY_INLINE V stage_b(const AirmassTable& table, const double* column0, const Chunk& ch, size_t j) {
     const DD dd;
     const size_t l = 4 * j;
     const double* coefficients = table.coefficients;
     const V upper = hn::Mul(hn::Load(dd, ch.factor + l), read(coefficients, ch.off + l, ch.t + l, hn::Load(dd, ch.u + l)));
     if (!ch.below[j]) return upper;
-    const V h = read_column0(coefficients, ch.off0 + l, ch.t0 + l);
+    const V h = read_column0(column0, ch.off0 + l, ch.t0 + l);
     // 2 c0 Ch∥(x0) − B R e^(−d) below; above (2 c0 = 0, e^(−d) = −1) exactly B R.
     return hn::NegMulAdd(upper, hn::Load(dd, ch.exp_d + l), hn::Mul(hn::Load(dd, ch.factor0 + l), h));
 }
@@ -263,6 +263,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             out2[i] = r.log_scale;
         }
     };
+    const double* column0 = detail::airmass_column0();
     Chunk ch;
     for (size_t i0 = 0; i0 < n; i0 += kBlocks * 4) {
         const size_t count = n - i0 < kBlocks * 4 ? n - i0 : kBlocks * 4;
@@ -291,7 +292,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             stage_a(table, hn::Load(dd, x), hn::Load(dd, mu), hn::Load(dd, s), ch, full);
         }
         for (size_t j = 0; j < blocks; ++j) {
-            const V mantissa = stage_b(table, ch, j);
+            const V mantissa = stage_b(table, column0, ch, j);
             const size_t i = i0 + 4 * j;
             if (!kRescaled && j < full && ch.slow[j] == 0) {
                 store4(mantissa, out1 + i);
