@@ -209,7 +209,7 @@ inline double airmass_read_column0(const double* column0, int i0, double t0) {
 const double* airmass_column0();
 
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
-// root, one division, one table read); below, all of stage 1.
+// root, three independent divisions, one table read); below, also Ch∥(x0) and e^(−d).
 template <class T>
 inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const double* column0, T x_in, T mu_in, T s_in) {
     const double x = x_in, mu = mu_in;
@@ -232,9 +232,9 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
         const double r = airmass_read(table.coefficients, (iw * (table.n_v - 1) + iv) * 16, sw - iw, sv - iv);
         return {static_cast<T>(base * r), T(0)};
     }
-    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (four).
+    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (five).
     const double s = s_in;
-    // x a0 ~ x^1.5 must not overflow in d.
+    // Beyond x ~ 1e150 (and for NaN) the careful path, as the batch kernels do.
     if (!(x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
     const double m = -mu;
     const double sx = std::sqrt(x), sx0 = std::sqrt(x * s);
