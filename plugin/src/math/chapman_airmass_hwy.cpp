@@ -88,8 +88,8 @@ constexpr size_t kBlocks = 16;
 struct Chunk {
     HWY_ALIGN double t[kBlocks * 4], u[kBlocks * 4], t0[kBlocks * 4];
     HWY_ALIGN double factor[kBlocks * 4];     // the base B: mantissa = B R above the horizon
-    HWY_ALIGN double factor0[kBlocks * 4];    // 2 c0 below, 0 above ...
-    HWY_ALIGN double exp_d[kBlocks * 4];      // e^(−d) below, −1 above: 2 c0 Ch∥ − B R e^(−d) = B R
+    HWY_ALIGN double factor0[kBlocks * 4];    // 2 c0 below, 0 above (stage b: e^(−d) = −1 there)
+    // log_scale: d below, 0 above; stage b takes e^(−d) from it.
     HWY_ALIGN double log_scale[kBlocks * 4];
     HWY_ALIGN double mantissa[kBlocks * 4];
     HWY_ALIGN int32_t off[kBlocks * 4], off0[kBlocks * 4];
@@ -194,7 +194,6 @@ HWY_INLINE void stage_a(const AirmassTable& table, V x, V mu, V s, Chunk& ch, si
         const V c0 = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx0, one);
         const V d = hn::Mul(hn::Mul(hn::Mul(x, hn::Mul(m, m)), hn::Mul(D, a0)), inv);
         hn::Store(hn::IfThenElseZero(below, hn::Add(c0, c0)), dd, ch.factor0 + l);
-        hn::Store(hn::IfThenElse(below, exp_neg(d), hn::Set(dd, -1.0)), dd, ch.exp_d + l);
         hn::Store(hn::IfThenElseZero(below, d), dd, ch.log_scale + l);
     }
     w = hn::IfThenZeroElse(slow, hn::Mul(bq, inv_D));
@@ -223,8 +222,12 @@ HWY_INLINE V stage_b(const AirmassTable& table, const double* column0, const Chu
     const V upper = hn::Mul(hn::Load(dd, ch.factor + l), read(coefficients, ch.off + l, ch.t + l, hn::Load(dd, ch.u + l)));
     if (!ch.below[j]) return upper;
     const V h = read_column0(column0, ch.off0 + l, hn::Load(dd, ch.t0 + l));
-    // 2 c0 Ch∥(x0) − B R e^(−d) below; above (2 c0 = 0, e^(−d) = −1) exactly B R.
-    return hn::NegMulAdd(upper, hn::Load(dd, ch.exp_d + l), hn::Mul(hn::Load(dd, ch.factor0 + l), h));
+    // 2 c0 Ch∥(x0) − B R e^(−d) below; above (2 c0 = 0, e^(−d) = −1) exactly B R. e^(−d) here
+    // rather than in stage a: it does not wait for the table read, and fills that latency (batch
+    // below the horizon 5.93 → 5.69 ns, bench_chapman, interleaved runs).
+    const V factor0 = hn::Load(dd, ch.factor0 + l);
+    const V exp_d = hn::IfThenElse(hn::Gt(factor0, hn::Zero(dd)), exp_neg(hn::Load(dd, ch.log_scale + l)), hn::Set(dd, -1.0));
+    return hn::NegMulAdd(upper, exp_d, hn::Mul(factor0, h));
 }
 
 // Loads four T as doubles.
