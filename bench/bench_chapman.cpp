@@ -4,8 +4,10 @@
 //   build/bench/bench_chapman --benchmark_filter=airmass
 // and for issue 14 goal 5. After the runs it prints the `airmass` method's times as ratios to
 // schuler2012's scalar double time above the horizon, measured in the same run (when the
-// filter ran both): scalar above and below (goal ≤ 20 ns, i.e. ≤ 5.6× at the quiet machine's
-// 3.6 ns for schuler2012) and batch above and below (goal ≤ 1.5×). With
+// filter ran both): scalar above and below against the goal's absolute 20 ns (a ratio would
+// move with the machine: 20 ns was 5.6× schuler2012 at the 3.6 ns the issue measured, 7×
+// at the 2.85 ns of the 2-core Xeon of December 2026) and batch above and below against
+// ≤ 1.5× schuler2012. With
 // --benchmark_repetitions the medians are used. CPU time, since the machine is shared.
 //   build/bench/bench_chapman --benchmark_filter='double/(airmass|schuler2012)/'
 //       --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -107,21 +109,24 @@ void print_goal_ratios(const std::map<std::string, double>& t) {
     std::printf("\nIssue 14 goal 5 (CPU ns per evaluation, double; batch kernel: %s)\n",
                 std::string(airmass::simd_target_name(airmass::simd_target())).c_str());
     std::printf("  %-34s %8.2f ns  (baseline of the ratios)\n", "schuler2012 scalar above", base);
-    struct Row { const char* label; const char* name; double goal; };
+    struct Row { const char* label; const char* name; double goal_ratio; double goal_ns; };
     const Row rows[] = {
-        {"airmass scalar above", "scalar_double/airmass/above", 20.0 / 3.6},
-        {"airmass scalar below", "scalar_double/airmass/below", 20.0 / 3.6},
-        {"airmass batch above", "batch_double/airmass/above", 1.5},
-        {"airmass batch below", "batch_double/airmass/below", 1.5},
-        {"schuler2012 scalar below", "scalar_double/schuler2012/below", 0},
-        {"schuler2012 batch above", "batch_double/schuler2012/above", 0},
+        {"airmass scalar above", "scalar_double/airmass/above", 0, 20.0},
+        {"airmass scalar below", "scalar_double/airmass/below", 0, 20.0},
+        {"airmass batch above", "batch_double/airmass/above", 1.5, 0},
+        {"airmass batch below", "batch_double/airmass/below", 1.5, 0},
+        {"schuler2012 scalar below", "scalar_double/schuler2012/below", 0, 0},
+        {"schuler2012 batch above", "batch_double/schuler2012/above", 0, 0},
     };
     for (const auto& r : rows) {
         const double v = get(r.name);
         if (v <= 0) continue;
-        if (r.goal > 0)
+        if (r.goal_ns > 0)
+            std::printf("  %-34s %8.2f ns  %5.2fx schuler2012 scalar above  (goal <= %.0f ns: %s)\n", r.label, v, v / base,
+                        r.goal_ns, v <= r.goal_ns ? "met" : "NOT met");
+        else if (r.goal_ratio > 0)
             std::printf("  %-34s %8.2f ns  %5.2fx schuler2012 scalar above  (goal <= %.2fx: %s)\n", r.label, v, v / base,
-                        r.goal, v / base <= r.goal ? "met" : "NOT met");
+                        r.goal_ratio, v / base <= r.goal_ratio ? "met" : "NOT met");
         else
             std::printf("  %-34s %8.2f ns  %5.2fx\n", r.label, v, v / base);
     }

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include "chapman_airmass.hpp"
 #include "chapman_airmass_hwy.hpp"
@@ -17,15 +18,21 @@
 
 namespace airmass {
 
-// The `airmass` batch kernel: for baseline x86-64 (and every other platform) on GCC/Clang vectors
-// (chapman_airmass_batch.inc); for AVX2/FMA written with Google Highway (chapman_airmass_hwy.cpp),
-// called from chapman_scaled_batch / chapman_rescaled_batch when simd_target() is avx2_fma.
-#if AIRMASS_CHAPMAN_VECTORS
+// The `airmass` batch kernel: for AVX2/FMA written with Google Highway (chapman_airmass_hwy.cpp),
+// called from chapman_scaled_batch / chapman_rescaled_batch when simd_target() is avx2_fma; for
+// baseline x86-64 the scalar path in a loop (on the 2-core Xeon of December 2026 11.0 / 17.7 ns
+// above / below the horizon against 14.8 / 31.5 ns for the four-lane vector-extension kernel,
+// whose 4-double vectors are SSE2 register pairs without FMA); on other platforms (macOS) the
+// four-lane kernel on GCC/Clang vectors (chapman_airmass_batch.inc).
+#if AIRMASS_CHAPMAN_VECTORS && !defined(__x86_64__)
+#define AIRMASS_CHAPMAN_V4_BATCH 1
 namespace airmass_v4 {
 namespace baseline {
 #include "chapman_airmass_batch.inc"
 }  // namespace baseline
 }  // namespace airmass_v4
+#else
+#define AIRMASS_CHAPMAN_V4_BATCH 0
 #endif
 
 namespace {
@@ -41,6 +48,16 @@ constexpr std::array<ChapmanMethodInfo, 8> kMethods{{
     {ChapmanMethod::golubev2019, "golubev2019", "Golubev 2019 Eq. 45: erfcx by a rational approximation"},
 }};
 
+#if AIRMASS_SIMD_DISPATCH
+// The `airmass` method's scalar path compiled for AVX2/FMA (flatten: everything it calls inlined
+// into this copy). The same formulas; the three-operand VEX forms save the register copies of the
+// two-operand SSE2 code, ~20 % of the scalar time (issue 14 goal 5).
+template <class T>
+AIRMASS_TARGET_AVX2_FMA ScaledChapman<T> airmass_scaled_avx2_fma(T x, T mu, T s) {
+    return detail::airmass_scaled_fast<T>(detail::airmass_table(), detail::airmass_column0(), x, mu, s);
+}
+#endif
+
 // Cosine and sine travel as separate scalars: a two-double struct argument was packed
 // through the stack and cost a store-forwarding stall on every call.
 template <class T>
@@ -51,7 +68,11 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
             const auto r = chapman_exact_scaled(double(x), double(mu), double(s));
             return {static_cast<T>(r.mantissa), static_cast<T>(r.log_scale)};
         }
-        case ChapmanMethod::airmass: return airmass_scaled_fast<T>(airmass_table(), x, mu, s);
+        case ChapmanMethod::airmass:
+#if AIRMASS_SIMD_DISPATCH
+            if (simd_target() == SimdTarget::avx2_fma) return airmass_scaled_avx2_fma<T>(x, mu, s);
+#endif
+            return airmass_scaled_fast<T>(airmass_table(), airmass_column0(), x, mu, s);
         case ChapmanMethod::schuler2012: return chapman_schuler2012(x, mu, s);
         case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, mu, s);
         case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, mu, s);
@@ -67,17 +88,19 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 // `x_of(i)` yields the i-th x, so the rescaled batch can form X + h without a copy.
 // The loop is compiled twice: for baseline x86-64 and, with everything it calls inlined
 // (flatten), for AVX2/FMA; simd_target() picks one at run time (airmass/simd.hpp).
-// The `airmass` method has its own kernels: four lanes on vectors (chapman_airmass_batch.inc)
-// for baseline, Highway's AVX2 (chapman_airmass_hwy.cpp) called directly by the batch functions.
+// The `airmass` method has its own kernels: the scalar path in a loop for baseline x86-64, four
+// lanes on vectors (chapman_airmass_batch.inc) elsewhere, Highway's AVX2 (chapman_airmass_hwy.cpp)
+// called directly by the batch functions.
 
 template <class T, ChapmanMethod M, class X, class Out>
 [[gnu::always_inline]] inline void batch_body(X& x_of, std::span<const T> c, std::span<const T> s, Out& out) {
     if constexpr (M == ChapmanMethod::airmass) {
         const auto& table = detail::airmass_table();
-#if AIRMASS_CHAPMAN_VECTORS
-        airmass_v4::baseline::airmass_batch<T>(table, x_of, c, s, out);
+#if AIRMASS_CHAPMAN_V4_BATCH
+        airmass_v4::baseline::airmass_batch<T>(table, detail::airmass_column0(), x_of, c, s, out);
 #else
-        for (size_t i = 0; i < c.size(); ++i) out(i, detail::airmass_scaled_fast<T>(table, x_of(i), c[i], s[i]));
+        const double* column0 = detail::airmass_column0();
+        for (size_t i = 0; i < c.size(); ++i) out(i, detail::airmass_scaled_fast<T>(table, column0, x_of(i), c[i], s[i]));
 #endif
     } else {
         const size_t n = c.size();
@@ -133,6 +156,19 @@ void batch_dispatch(ChapmanMethod method, size_t n, X x, std::span<const T> c, s
 }
 
 }  // namespace
+
+namespace detail {
+const double* airmass_column0() {
+    static const std::vector<double> column = [] {
+        const AirmassTable& table = airmass_table();
+        std::vector<double> c(static_cast<size_t>(table.n_w - 1) * 4);
+        for (int i = 0; i < table.n_w - 1; ++i)
+            for (int a = 0; a < 4; ++a) c[4 * i + a] = table.coefficients[static_cast<size_t>(i) * (table.n_v - 1) * 16 + 4 * a];
+        return c;
+    }();  // immutable once built (thread-safe initialisation)
+    return column.data();
+}
+}  // namespace detail
 
 std::span<const ChapmanMethodInfo> chapman_methods() { return kMethods; }
 

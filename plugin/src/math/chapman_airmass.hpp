@@ -140,18 +140,20 @@ struct AirmassTable {
 
 // e^(−d) for d ≥ 0 (d > 700 gives e^(−700), which no caller can tell from 0 beside the O(1)
 // terms it is added to): d = k ln 2 + r, |r| ≤ ln2/2, e^(−r) by its Taylor polynomial to degree
-// 9 (truncation ≤ 7e-12; the identity's mantissa inherits at most this relative error, since
-// Ch(x, 180° − chi) e^(−d) ≤ Ch∥(x0)), in Estrin's scheme (a short dependency chain), and 2^(−k)
+// 7 (truncation ≤ |r|^8 e^|r| / 8! ≤ 7.3e-9, against the method's 1e-6; the identity's mantissa
+// inherits at most this relative error, since Ch(x, 180° − chi) e^(−d) ≤ Ch∥(x0); degree 9 cost
+// three more vector operations in the batch, whose time is the count of its vector operations),
+// in Estrin's scheme (a short dependency chain), and 2^(−k)
 // built in the exponent bits. Branch-free. Written once for double and for 4-double vectors.
 template <class V, class Bits>
 inline V airmass_exp_neg_poly(V d, V kb, double round_magic) {
     constexpr double ln2_hi = 0.6931471805598903, ln2_lo = 5.497923018708371e-14;
     const V k = kb - round_magic;
     const V y = (k * ln2_hi - d) + k * ln2_lo;  // −r
-    const V y2 = y * y, y4 = y2 * y2, y8 = y4 * y4;
+    const V y2 = y * y, y4 = y2 * y2;
     const V p01 = 1.0 + y, p23 = 0.5 + y * (1.0 / 6.0), p45 = 1.0 / 24.0 + y * (1.0 / 120.0);
-    const V p67 = 1.0 / 720.0 + y * (1.0 / 5040.0), p89 = 1.0 / 40320.0 + y * (1.0 / 362880.0);
-    return (p01 + y2 * p23) + y4 * (p45 + y2 * p67) + y8 * p89;
+    const V p67 = 1.0 / 720.0 + y * (1.0 / 5040.0);
+    return (p01 + y2 * p23) + y4 * (p45 + y2 * p67);
 }
 
 inline double airmass_exp_neg(double d) {
@@ -165,27 +167,28 @@ inline double airmass_exp_neg(double d) {
     return p * std::bit_cast<double>((1023ull - kbits) << 52);
 }
 
-// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Horner in t on the four
-// groups of u-coefficients at once (one 4-double vector each: four loads, three vector FMAs),
-// then Horner in u on the four lanes. GCC and Clang vector extensions: pairs of SSE2 registers in
-// baseline code (the scalar path and the baseline batch kernel).
+// The bicubic at (t, u) in the cell whose coefficients start at `cell`. Estrin's scheme in t on
+// the four groups of u-coefficients at once, then in u: two dependent multiply-adds each way
+// instead of three. On 2-double vectors (one SSE2 register each; GCC and Clang vector
+// extensions): a 4-double vector in baseline code is a register pair, and GCC built its splat of
+// t through the stack, two 8-byte stores read back by one 16-byte load, a failed store forwarding
+// that was half of the scalar path's time (perf annotate).
 #if defined(__GNUC__) || defined(__clang__)
 #define AIRMASS_CHAPMAN_VECTORS 1
-typedef double AirmassV4 __attribute__((vector_size(32)));
-inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+typedef double AirmassV4 __attribute__((vector_size(32)));  // the baseline batch kernel's lanes
+typedef double AirmassV2 __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline double airmass_read(const double* coefficients, int cell, double t, double u) {
     const double* c = coefficients + cell;
-    AirmassV4 g0, g1, g2, g3;
-    std::memcpy(&g0, c, sizeof g0);
-    std::memcpy(&g1, c + 4, sizeof g1);
-    std::memcpy(&g2, c + 8, sizeof g2);
-    std::memcpy(&g3, c + 12, sizeof g3);
-    // Estrin's scheme in both directions: two dependent FMAs each instead of three.
-    const AirmassV4 col = (g0 + g1 * t) + (g2 + g3 * t) * (t * t);
-    return (col[0] + col[1] * u) + (col[2] + col[3] * u) * (u * u);
+    AirmassV2 g[8];
+    std::memcpy(g, c, sizeof g);
+    const AirmassV2 tv{t, t}, t2{t * t, t * t};
+    const AirmassV2 lo = (g[0] + g[2] * tv) + (g[4] + g[6] * tv) * t2;  // coefficients of u^0, u^1
+    const AirmassV2 hi = (g[1] + g[3] * tv) + (g[5] + g[7] * tv) * t2;  // of u^2, u^3
+    return (lo[0] + lo[1] * u) + (hi[0] + hi[1] * u) * (u * u);
 }
 #else
 #define AIRMASS_CHAPMAN_VECTORS 0
-inline double airmass_read(const double* coefficients, int cell, double t, double u) {
+[[gnu::always_inline]] inline double airmass_read(const double* coefficients, int cell, double t, double u) {
     const double* c = coefficients + cell;
     double col[4];
     for (int b = 0; b < 4; ++b) col[b] = (c[b] + c[4 + b] * t) + (c[8 + b] + c[12 + b] * t) * (t * t);
@@ -193,16 +196,22 @@ inline double airmass_read(const double* coefficients, int cell, double t, doubl
 }
 #endif
 
-// ... and the v = 0 column at t0 in the cell at `cell0`.
-inline double airmass_read_column0(const double* coefficients, int cell0, double t0) {
-    const double* c = coefficients + cell0;
-    return (c[0] + c[4] * t0) + (c[8] + c[12] * t0) * (t0 * t0);
+// ... and the v = 0 column at t0 in cell i0 along w, from the column's own copy (airmass_column0).
+inline double airmass_read_column0(const double* column0, int i0, double t0) {
+    const double* c = column0 + 4 * i0;
+    return (c[0] + c[1] * t0) + (c[2] + c[3] * t0) * (t0 * t0);
 }
 
+// The v = 0 column's cubics contiguous, 4 doubles per cell along w (c[0], c[4], c[8], c[12] of cell
+// (i, 0)): 2 KB that stay in L1. In the table the column's cells are (n_v − 1) · 128 bytes = 8 KB
+// apart, so all of them fall in one set of a 48 KB 12-way L1 and evict each other; the reads of
+// Ch∥(x0) below the horizon missed L1 every time. Built once from the table (chapman.cpp).
+const double* airmass_column0();
+
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
-// root, one division, one table read); below, all of stage 1.
+// root, three independent divisions, one table read); below, also Ch∥(x0) and e^(−d).
 template <class T>
-inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T mu_in, T s_in) {
+inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const double* column0, T x_in, T mu_in, T s_in) {
     const double x = x_in, mu = mu_in;
     if (mu >= 0.0) {
         const double sx = std::sqrt(x);
@@ -223,9 +232,9 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
         const double r = airmass_read(table.coefficients, (iw * (table.n_v - 1) + iv) * 16, sw - iw, sv - iv);
         return {static_cast<T>(base * r), T(0)};
     }
-    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (four).
+    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (five).
     const double s = s_in;
-    // x a0 ~ x^1.5 must not overflow in d.
+    // Beyond x ~ 1e150 (and for NaN) the careful path, as the batch kernels do.
     if (!(x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
     const double m = -mu;
     const double sx = std::sqrt(x), sx0 = std::sqrt(x * s);
@@ -237,9 +246,8 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
     const double v_raw = m * (1.0 + Y) / b;
     const double v = v_raw < 1.0 ? v_raw : 1.0;
     const double base = c / q;
-    const double inv0 = 1.0 / (a0 * sp);
-    const double w0 = sp * inv0;
-    const double d = x * m * m * a0 * inv0;
+    const double w0 = 1.0 / a0;
+    const double d = x * m * m / sp;  // not after √(x s): the exp's chain starts at once
     const int n_w = table.n_w, n_v = table.n_v;
     const double sw = w * (n_w - 1), sv = v * (n_v - 1), sw0 = w0 * (n_w - 1);
     int iw = static_cast<int>(sw), iv = static_cast<int>(sv), iw0 = static_cast<int>(sw0);
@@ -247,7 +255,7 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, T x_in, T
     iv = iv < n_v - 2 ? iv : n_v - 2;
     iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
     const double r = airmass_read(table.coefficients, (iw * (n_v - 1) + iv) * 16, sw - iw, sv - iv);
-    const double h = airmass_read_column0(table.coefficients, iw0 * (n_v - 1) * 16, sw0 - iw0);
+    const double h = airmass_read_column0(column0, iw0, sw0 - iw0);
     // The reflection identity in scaled form: mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d).
     return {static_cast<T>(2.0 * airmass_base_horizontal(sx0) * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
 }
