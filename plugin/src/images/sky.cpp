@@ -525,11 +525,15 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                 s.resize(cols, nw);
                 for (int k = int(rb); k < int(re); ++k) {
                     if (cancelled()) return;
-                    for (int j = 0; j < cols; ++j) s.dirs[j] = grid.node_direction(k, j);
-                    evaluate_with(short_row[std::size_t(k)] ? *short_evaluator : ctx.evaluator, s, cols);
+                    // A row at the zenith or the nadir is one direction in every column (to
+                    // 1e-16 at the nadir, whose sin θ rounds to 1.2e-16): evaluated once.
+                    const int evaluated = std::abs(std::sin(grid.row_theta(k))) < 1e-12 ? 1 : cols;
+                    for (int j = 0; j < evaluated; ++j) s.dirs[j] = grid.node_direction(k, j);
+                    evaluate_with(short_row[std::size_t(k)] ? *short_evaluator : ctx.evaluator, s,
+                                  std::size_t(evaluated));
                     std::vector<double> scattered(nw), ground(nw);
                     for (int j = 0; j < cols; ++j) {
-                        const std::size_t o = std::size_t(j) * nw;
+                        const std::size_t o = std::size_t(evaluated == 1 ? 0 : j) * nw;
                         for (std::size_t w = 0; w < nw; ++w) {
                             scattered[w] = s.rayleigh[o + w] + s.mie[o + w] + s.multiple_inscatter[o + w];
                             ground[w] = s.radiance[o + w] - scattered[w];
