@@ -3,12 +3,20 @@
 
 #include "airmass/atomic_file.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
+#ifndef _WIN32
+#include <sys/mman.h>
+#include <sys/stat.h>
+#endif
 
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
+#include <optional>
+#include <span>
 #include <system_error>
 #include <vector>
 
@@ -30,6 +38,67 @@ bool is_entry(const fs::path& p) {
     const std::string name = p.filename().string();
     return name.rfind(kPrefix, 0) == 0 && p.extension() == kSuffix;
 }
+
+// A file's bytes for reading: mapped read-only where the platform can (the page cache itself,
+// nothing copied or zeroed: a 10 MB entry costs its checksum pass and the one copy into the
+// tables), else read whole into a buffer. The cache replaces an entry only by renaming a new
+// file over it (atomic_file.hpp), so a mapped entry's file is never truncated under it.
+class FileBytes {
+public:
+    explicit FileBytes(const fs::path& path) {
+#ifndef _WIN32
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) return;
+        struct stat st {};
+        if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
+            size_ = std::size_t(st.st_size);
+            ok_ = true;
+            if (size_ > 0) {
+                int flags = MAP_PRIVATE;
+#ifdef MAP_POPULATE
+                flags |= MAP_POPULATE;  // the pages mapped now, not one fault at a time
+#endif
+                void* p = ::mmap(nullptr, size_, PROT_READ, flags, fd, 0);
+                if (p != MAP_FAILED) map_ = p;
+                else ok_ = read_all(path);
+            }
+        }
+        ::close(fd);
+#else
+        std::error_code ec;
+        size_ = std::size_t(fs::file_size(path, ec));
+        ok_ = !ec && read_all(path);
+#endif
+    }
+    ~FileBytes() {
+#ifndef _WIN32
+        if (map_) ::munmap(map_, size_);
+#endif
+    }
+    FileBytes(const FileBytes&) = delete;
+    FileBytes& operator=(const FileBytes&) = delete;
+
+    bool ok() const { return ok_; }
+    std::span<const std::byte> bytes() const {
+        if (map_) return {static_cast<const std::byte*>(map_), size_};
+        return {buffer_.get(), buffer_ ? size_ : 0};
+    }
+
+private:
+    // One read into an uninitialised buffer.
+    bool read_all(const fs::path& path) {
+        std::ifstream in(path, std::ios::binary);
+        if (!in) return false;
+        buffer_.reset(new std::byte[size_]);
+        in.read(reinterpret_cast<char*>(buffer_.get()), std::streamsize(size_));
+        return in.gcount() == std::streamsize(size_);
+    }
+
+    std::size_t size_ = 0;
+    bool ok_ = false;
+    void* map_ = nullptr;
+    std::unique_ptr<std::byte[]> buffer_;
+};
 
 }  // namespace
 
@@ -65,17 +134,12 @@ std::shared_ptr<const MultipleScattering> DiskTableStore::load(std::string_view 
     if (dir_.empty()) return nullptr;
     const fs::path path = entry_path(key);
     std::error_code ec;
-    const std::uintmax_t size = fs::file_size(path, ec);
-    if (ec) return nullptr;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return nullptr;
-    // One read into an uninitialised buffer (tables of 48 wavelengths are ≈ 40 MB).
-    std::unique_ptr<std::byte[]> raw(new std::byte[std::size_t(size)]);
-    in.read(reinterpret_cast<char*>(raw.get()), std::streamsize(size));
-    const bool whole = in.gcount() == std::streamsize(size);
-    in.close();
-    auto tables = whole ? deserialize_tables(std::span<const std::byte>(raw.get(), std::size_t(size)), key)
-                        : std::nullopt;
+    std::optional<MultipleScattering> tables;
+    {
+        const FileBytes file(path);  // tables of 48 wavelengths are ≈ 40 MB
+        if (!file.ok()) return nullptr;  // missing or unreadable: a miss
+        tables = deserialize_tables(file.bytes(), key);
+    }
     if (!tables) {
         // Foreign, truncated or corrupt: never trusted, removed so the fresh tables replace it.
         last_load_ = Outcome::rejected;

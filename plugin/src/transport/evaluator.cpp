@@ -132,12 +132,17 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
                               sun, int(2 * nw), false)};
     if (!tables_) return view;
     SkyGrid& g = view.grid;
+    // A row at the zenith or the nadir is one direction in every column (to 1e-16 at the
+    // nadir, whose sin θ rounds to 1.2e-16): its column 0 is integrated and copied.
+    std::vector<unsigned char> polar(std::size_t(g.rows()), 0);
+    for (int k = 0; k < g.rows(); ++k) polar[std::size_t(k)] = std::abs(std::sin(g.row_theta(k))) < 1e-12;
     parallel_for(0, std::size_t(g.rows()) * g.columns(), 16, threads, [&](std::size_t b, std::size_t e, int) {
         MsScratch scratch(nw);
         std::vector<double> T(nw);
         for (std::size_t n = b; n < e; ++n) {
             if (hooks.cancel && hooks.cancel->requested()) return;
             const int k = int(n / g.columns()), j = int(n % g.columns());
+            if (j > 0 && polar[std::size_t(k)]) continue;
             const ViewRay vr{altitude_m, g.node_direction(k, j), sun};
             // Its view transmittance only (the numbers single scattering would give, without
             // the in-scatter it would also integrate).
@@ -154,6 +159,9 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
         }
     });
     if (hooks.cancel && hooks.cancel->requested()) throw Cancelled("multiple-scattering view: cancelled");
+    for (int k = 0; k < g.rows(); ++k)
+        if (polar[std::size_t(k)])
+            for (int j = 1; j < g.columns(); ++j) std::copy_n(g.at(k, 0), 2 * nw, g.at(k, j));
     return view;
 }
 

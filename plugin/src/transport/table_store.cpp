@@ -3,18 +3,27 @@
 // magic check):
 //
 //   magic "AMSTBL\0\0" | u32 format | u32 byte-order mark 0x01020304
-//   u64 key length | key bytes
-//   u64 payload length | u64 FNV-1a of the payload | payload
+//   u64 key length | key bytes | zero bytes to a multiple of 8
+//   u64 payload length | u64 checksum of the payload (payload_checksum) | payload
 //
 // The payload is the fields of MultipleScattering in declaration order, each vector as a u64
-// count and its elements.
+// count and its elements. Every field's size is a multiple of 4 bytes and the payload starts at
+// a multiple of 8 of the record, so a record read to an aligned address (a heap buffer, a
+// mapped file) has every vector's elements aligned: they are copied into their vectors at once.
 #include "airmass/table_store.hpp"
 
+#include <algorithm>
+#include <array>
 #include <bit>
+#include <cstdint>
 #include <cstring>
 #include <type_traits>
 
 #include "airmass/version.hpp"
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 namespace airmass {
 
@@ -26,9 +35,10 @@ extern const char* const kSourceDigest;
 namespace {
 
 constexpr char kMagic[8] = {'A', 'M', 'S', 'T', 'B', 'L', 0, 0};
-// 2: MsOrderInfo::tail_corrected_change; 3: repeats_after_order; 4: order 1's own ray samples
-// (the key changes with them; the format, because the values of every table do)
-constexpr std::uint32_t kFormat = 4;
+// 2: MsOrderInfo::tail_corrected_change; 3: repeats_after_order; 4: the key padded to a multiple
+// of 8, payload_checksum (four lanes) instead of fnv1a64; 5: order 1's own ray samples (the key
+// changes with them; the format, because the values of every table do).
+constexpr std::uint32_t kFormat = 5;
 constexpr std::uint32_t kByteOrderMark = 0x01020304u;
 
 class Writer {
@@ -58,6 +68,19 @@ private:
     std::vector<std::byte> bytes_;
 };
 
+// Asks the system to back the 2 MB-aligned part of fresh, untouched storage with huge pages
+// (Linux transparent huge pages in "madvise" mode): a 10 MB table then costs a handful of page
+// faults instead of 2 500 — most of the time of reading it from a mapped file. A hint only:
+// where it is refused or unavailable the storage gets ordinary pages.
+void prefer_huge_pages([[maybe_unused]] void* data, [[maybe_unused]] std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+    const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+    const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
+    if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#endif
+}
+
 class Reader {
 public:
     explicit Reader(std::span<const std::byte> b) : bytes_(b) {}
@@ -79,10 +102,20 @@ public:
     bool get_vector(std::vector<T>& v) {
         std::uint64_t n = 0;
         if (!get(n) || n > (bytes_.size() - pos_) / sizeof(T)) return false;
-        v.resize(std::size_t(n));
-        // memcpy from/to a null pointer is undefined even for 0 bytes (an empty vector's data();
-        // UBSan in the sanitizer stage, TableStore.RecordRoundTripsBitForBit)
-        if (n > 0) std::memcpy(v.data(), bytes_.data() + pos_, std::size_t(n) * sizeof(T));
+        const std::byte* p = bytes_.data() + pos_;
+        if (reinterpret_cast<std::uintptr_t>(p) % alignof(T) == 0) {
+            // One pass: the elements copied into new storage (resize would first zero it).
+            const T* first = reinterpret_cast<const T*>(p);
+            v.clear();
+            v.reserve(std::size_t(n));
+            prefer_huge_pages(v.data(), std::size_t(n) * sizeof(T));
+            v.assign(first, first + std::size_t(n));
+        } else {
+            v.resize(std::size_t(n));
+            // memcpy from/to a null pointer is undefined even for 0 bytes (an empty vector's data();
+            // UBSan in the sanitizer stage, TableStore.RecordRoundTripsBitForBit)
+            if (n > 0) std::memcpy(v.data(), p, std::size_t(n) * sizeof(T));
+        }
         pos_ += std::size_t(n) * sizeof(T);
         return true;
     }
@@ -117,6 +150,36 @@ std::uint64_t fnv1a64(std::span<const std::byte> bytes) {
 std::uint64_t fnv1a64(std::string_view text) {
     return fnv1a64(std::as_bytes(std::span<const char>(text.data(), text.size())));
 }
+
+namespace {
+
+// The records' checksum: fnv1a64's word step in four independent lanes over 32-byte blocks
+// (the lanes' multiplications overlap: ≈ 4× its speed, a 10 MB table in well under a
+// millisecond), the lanes and the tail folded in by the same step. It detects corruption; it
+// is not a cryptographic hash.
+std::uint64_t payload_checksum(std::span<const std::byte> bytes) {
+    const auto step = [](std::uint64_t h, std::uint64_t word) {
+        h ^= word;
+        h *= 0x100000001b3ull;
+        return h ^ (h >> 29);
+    };
+    std::uint64_t lane[4] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull, 0x9e3779b97f4a7c15ull,
+                             0xc2b2ae3d27d4eb4full};
+    std::size_t i = 0;
+    for (; i + 32 <= bytes.size(); i += 32) {
+        std::uint64_t w[4];
+        std::memcpy(w, bytes.data() + i, 32);
+        for (int l = 0; l < 4; ++l) lane[l] = step(lane[l], w[l]);
+    }
+    std::uint64_t h = step(step(step(step(0xcbf29ce484222325ull, lane[0]), lane[1]), lane[2]), lane[3]);
+    h = step(h, std::uint64_t(bytes.size()));
+    for (; i < bytes.size(); ++i) h = step(h, std::uint64_t(bytes[i]));
+    return h;
+}
+
+constexpr std::size_t padding_to_8(std::size_t n) { return (8 - n % 8) % 8; }
+
+}  // namespace
 
 std::string ms_table_key(const Atmosphere& atm, const MsSettings& s) {
     Writer w;
@@ -197,9 +260,10 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
     r.put(kFormat);
     r.put(kByteOrderMark);
     r.put_string(key);
+    r.put_bytes(std::array<std::byte, 8>{}.data(), padding_to_8(r.bytes().size()));
     const std::vector<std::byte>& payload = p.bytes();
     r.put<std::uint64_t>(payload.size());
-    r.put(fnv1a64(payload));
+    r.put(payload_checksum(payload));
     r.put_bytes(payload.data(), payload.size());
     return std::move(r.bytes());
 }
@@ -214,8 +278,12 @@ std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> 
     if (!r.get(key_size) || key_size != key.size() || !r.get_span(std::size_t(key_size), stored_key) ||
         std::memcmp(stored_key.data(), key.data(), key.size()) != 0)
         return {};
+    std::span<const std::byte> padding;
+    if (!r.get_span(padding_to_8(sizeof kMagic + 2 * sizeof(std::uint32_t) + sizeof key_size + key.size()), padding) ||
+        std::any_of(padding.begin(), padding.end(), [](std::byte b) { return b != std::byte{0}; }))
+        return {};
     if (!r.get(payload_size) || !r.get(checksum) || !r.get_span(std::size_t(payload_size), payload) || !r.at_end() ||
-        fnv1a64(payload) != checksum)
+        payload_checksum(payload) != checksum)
         return {};
 
     Reader p(payload);
