@@ -170,14 +170,6 @@ struct BoxContext {
         return true;
     }
 
-    bool lit(const PlanetRay<double>& view, const glm::dvec3& o, const glm::dvec3& v, double t) const {
-        const glm::dvec3 q = o + t * v - centre;
-        const double mu = std::clamp(glm::dot(q, sun) / glm::length(q), -1.0, 1.0);
-        const PlanetRay<double> ray{atm.planet_radius_m, std::max(view.altitude_at(t), 0.0),
-                                    ZenithAngle<double>::from_cos(mu)};
-        return !in_planet_shadow(ray);
-    }
-
     // Largest extinction over wavelengths at altitude h (m⁻¹).
     double max_extinction(double h) const {
         if (h > atm.top_altitude_m) return 0.0;
@@ -232,6 +224,7 @@ void box_panels(const BoxContext& ctx, const PlanetRay<double>& ray, const glm::
     const std::size_t nc = ctx.nc;
     double dm[kMaxConstituents];
     double prev = a, t = a;
+    const ShadowSpan shadow = earth_shadow_span(ray, glm::dot(o - ctx.centre, ctx.sun), glm::dot(v, ctx.sun));
     while (t < b) {
         const double h = ray.altitude_at(t);
         const double mu = std::abs(ray.zenith_at(t).cos_chi);
@@ -241,17 +234,10 @@ void box_panels(const BoxContext& ctx, const PlanetRay<double>& ray, const glm::
         if (sigma > 0.0) step = std::min(step, 0.3 / sigma);
         step = std::clamp(step, 1.0, 100e3);
         double end = std::min(t + step, b);
-        // Earth's shadow: split the panel exactly at the boundary.
-        if (ctx.lit(ray, o, v, t) != ctx.lit(ray, o, v, end)) {
-            double lo = t, hi = end;
-            const bool lit_lo = ctx.lit(ray, o, v, lo);
-            for (int it = 0; it < 80 && hi - lo > 1e-9 * (1.0 + hi); ++it) {
-                const double mid = 0.5 * (lo + hi);
-                (ctx.lit(ray, o, v, mid) == lit_lo ? lo : hi) = mid;
-            }
-            end = std::max(hi, t + 1e-9 * (1.0 + t));
-            end = std::min(end, b);
-        }
+        // Earth's shadow (earth_shadow_span, the shadow of every sun ray): split the panel
+        // exactly at a boundary inside it.
+        for (const double edge : {shadow.t0, shadow.t1})
+            if (shadow.t1 > shadow.t0 && edge > t + 1e-9 * (1.0 + t) && edge < end) end = edge;
         const double len = end - t;
         for (int k = 0; k < 4; ++k) {
             const double tk = t + len * kGlX[k];
