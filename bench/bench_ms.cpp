@@ -122,10 +122,10 @@ BENCHMARK(BM_ViewRay)->Arg(int(MsMode::orders))->Arg(int(MsMode::isotropic_lut))
 
 // The tables' accuracy, printed beside their time so that a faster precompute is seen to keep
 // it: the default tables against a reference on the same grid with every order summed (no
-// tail, until the next order adds < 1e-9) and 128 samples per grid ray for every order — the
+// tail, until the next order adds < 1e-9, at most 60 orders) and 128 samples per grid ray for every order — the
 // error of the order stop and of the grid rays' quadrature, the knobs the precompute's speed
 // trades (the grid's own error is `airmass report ms`'s, against Monte Carlo).
-// Multiple scattering along 252 view rays (ground, 10 km, 400 km; sun from 60° to −12°),
+// Multiple scattering along 288 view rays (ground, 10 km, 400 km; sun from 60° to −12°),
 // 64 samples each on both sides; per ray and wavelength |Δ multiple| / (single + multiple).
 void print_accuracy() {
     const Atmosphere& atm = earth48();

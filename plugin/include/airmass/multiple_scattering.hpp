@@ -124,7 +124,7 @@ struct MsSettings {
     bool geometric_tail = true;
     // Quadrature intervals along each table ray: for order 1 (the sunlight, which changes
     // fastest along a ray at twilight; transport_order1) and for the transport of every later
-    // order. Their error against 128 for both (`bench_ms`: earth, 48 λ, 252 view rays from the
+    // order. Their error against 128 for both (`bench_ms`: earth, 48 λ, 288 view rays from the
     // ground to 400 km, sun 60° … −12°; |Δ multiple| / total; docs/multiple_scattering.md):
     // 16 / 16 with order 1 at each interval's midpoint (before 2026-12-03) 7.3 % p95, 20 % max;
     // 32 / 8 2.2 % p95, 4.4 % max, and 12 % less CPU time.

@@ -376,9 +376,15 @@ constexpr int kShortRaySamples = 4;
 // the presets' ground rays from 1–30 m, down to 0.2° below the horizon, changes by ≤ 2e-8
 // relative (the blender-nishita and earth images at their defaults: the same floats). Ground
 // rows of an observer near the ground are such rays (from 1 m: every ground row but the one
-// next to the horizon).
-bool short_ground_ray(const Atmosphere& atm, double h0, double L) {
+// next to the horizon). Not while Earth's shadow could cut the ray: with the sun's elevation
+// (sin = sun_z) within the horizon's dip at h0 plus L/R (the ray's points' verticals turn by
+// at most that) and 1 mrad of margin of the horizon, T_sun may jump along it.
+bool short_ground_ray(const Atmosphere& atm, double h0, double L, double sun_z) {
     if (!(L >= 0.0) || !(h0 >= 0.0)) return false;
+    const double R = atm.planet_radius_m;
+    const double dip = std::acos(std::clamp(R / (R + h0), -1.0, 1.0)), turn = L / R + 1e-3;
+    const double sun_elevation = std::asin(std::clamp(sun_z, -1.0, 1.0));
+    if (sun_elevation > -(dip + turn) && sun_elevation < turn) return false;
     double tau = 0.0;
     for (const AtmosphereConstituent& c : atm.constituents) {
         const CompiledProfile& p = c.profile;
@@ -480,7 +486,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             const PlanetRay<double> ray{atm.planet_radius_m, ctx.altitude_m,
                                         ZenithAngle<double>::from_cos(std::cos(grid.row_theta(k)))};
             if (ctx.altitude_m <= atm.top_altitude_m && hits_ground(ray) &&
-                short_ground_ray(atm, ctx.altitude_m, ground_distance_m(ray))) {
+                short_ground_ray(atm, ctx.altitude_m, ground_distance_m(ray), ctx.sun.z)) {
                 short_row[std::size_t(k)] = 1;
                 any = true;
             }

@@ -22,8 +22,9 @@ namespace airmass {
 // called from chapman_scaled_batch / chapman_rescaled_batch when simd_target() is avx2_fma; for
 // baseline x86-64 the scalar path in a loop (on the 2-core Xeon of December 2026 11.0 / 17.7 ns
 // above / below the horizon against 14.8 / 31.5 ns for the four-lane vector-extension kernel,
-// whose 4-double vectors are SSE2 register pairs without FMA); on other platforms (macOS) the
-// four-lane kernel on GCC/Clang vectors (chapman_airmass_batch.inc).
+// whose 4-double vectors are SSE2 register pairs without FMA; macOS on Intel too); on other
+// platforms (macOS on Apple silicon) the four-lane kernel on GCC/Clang vectors
+// (chapman_airmass_batch.inc).
 #if AIRMASS_CHAPMAN_VECTORS && !defined(__x86_64__)
 #define AIRMASS_CHAPMAN_V4_BATCH 1
 namespace airmass_v4 {
