@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -223,6 +224,32 @@ TEST(MultipleScatteringOrders, ConvergeMonotonically) {
 // fall slower than by day: hence the rule and the tail per sun-zenith node) and from orbit, a total radiance
 // within 0.1 % (measured 0.052 %: tolerance 2e-4 per sun-zenith node) of the plain sum of every order up to one that adds
 // < 1e-9, with no tail (converged). Same table size, so only the orders differ.
+// Views by (altitude m, sun elevation °, view elevation °, azimuth from the sun °).
+struct ViewAt {
+    double alt, sun, el, az;
+};
+
+// The largest |Δ multiple| / total of table `a` against table `b` over `views` and the
+// wavelengths (total: b's single + multiple scattering), each expected ≤ `tolerance`.
+double worst_multiple_difference(const MultipleScattering& a, const MultipleScattering& b,
+                                 std::initializer_list<ViewAt> views, double tolerance) {
+    double worst = 0.0;
+    for (const ViewAt v : views) {
+        const Radiance ra = radiance(earth(), a, view(v.alt, v.sun, v.el, v.az));
+        const Radiance rb = radiance(earth(), b, view(v.alt, v.sun, v.el, v.az));
+        for (std::size_t w = 0; w < kWavelengths.size(); ++w) {
+            const double total = rb.single[w] + rb.multiple[w];
+            EXPECT_GT(total, 0.0) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az;
+            if (!(total > 0.0)) continue;
+            const double e = std::abs(ra.multiple[w] - rb.multiple[w]) / total;
+            worst = std::max(worst, e);
+            EXPECT_LE(e, tolerance) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az
+                                    << " λ " << kWavelengths[w];
+        }
+    }
+    return worst;
+}
+
 TEST(MultipleScatteringOrders, AutomaticStopMatchesConvergedSum) {
     MsSettings all;
     all.geometric_tail = false;
@@ -231,24 +258,12 @@ TEST(MultipleScatteringOrders, AutomaticStopMatchesConvergedSum) {
     const MultipleScattering converged = precompute_multiple_scattering(earth(), all);
     EXPECT_GT(converged.highest_order, earth_ms().highest_order + 10);
     EXPECT_LT(converged.orders.back().max_relative, 1e-9);
-    struct V {
-        double alt, sun, el, az;
-    };
-    double worst = 0.0;
-    for (const V v : {V{0, 30, 90, 0}, V{0, 30, 5, 180}, V{0, 2, 10, 0}, V{0, 2, 20, 180}, V{0, -4, 90, 0},
-                      V{0, -4, 10, 0}, V{0, -4, 20, 180}, V{0, -8, 10, 0}, V{0, -8, 30, 180}, V{0, -12, 10, 0},
-                      V{0, -12, 45, 90}, V{0, 70, -30, 90}, V{400e3, 30, -90, 0}, V{400e3, 5, -19, 180}}) {
-        const Radiance a = radiance(earth(), earth_ms(), view(v.alt, v.sun, v.el, v.az));
-        const Radiance b = radiance(earth(), converged, view(v.alt, v.sun, v.el, v.az));
-        for (std::size_t w = 0; w < kWavelengths.size(); ++w) {
-            const double total = b.single[w] + b.multiple[w];
-            ASSERT_GT(total, 0.0) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az;
-            const double e = std::abs(a.multiple[w] - b.multiple[w]) / total;
-            worst = std::max(worst, e);
-            EXPECT_LE(e, 1e-3) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az << " λ "
-                               << kWavelengths[w];
-        }
-    }
+    const double worst = worst_multiple_difference(
+        earth_ms(), converged,
+        {{0, 30, 90, 0}, {0, 30, 5, 180}, {0, 2, 10, 0}, {0, 2, 20, 180}, {0, -4, 90, 0}, {0, -4, 10, 0},
+         {0, -4, 20, 180}, {0, -8, 10, 0}, {0, -8, 30, 180}, {0, -12, 10, 0}, {0, -12, 45, 90}, {0, 70, -30, 90},
+         {400e3, 30, -90, 0}, {400e3, 5, -19, 180}},
+        1e-3);
     std::printf("automatic stop at order %d (converged sum: %d orders): worst |delta| / total %.2e\n", earth_ms().highest_order,
                 converged.highest_order, worst);
 }
@@ -267,24 +282,12 @@ TEST(MultipleScatteringOrders, GridRaySamplesConverge) {
     MsSettings defaults;
     defaults.max_order = earth_ms().highest_order;
     const MultipleScattering ms = precompute_multiple_scattering(earth(), defaults);
-    struct V {
-        double alt, sun, el, az;
-    };
-    double worst = 0.0;
-    for (const V v : {V{0, 30, 10, 0}, V{0, 2, 10, 0}, V{0, 2, 2, 180}, V{0, -2, 2, 0}, V{0, -4, 10, 90},
-                      V{0, -4, 30, 180}, V{0, -8, 10, 0}, V{0, -8, 45, 180}, V{10e3, -4, 2, 0}, V{10e3, -8, -10, 180},
-                      V{400e3, 10, -30, 0}, V{400e3, -4, -30, 0}}) {
-        const Radiance a = radiance(earth(), ms, view(v.alt, v.sun, v.el, v.az));
-        const Radiance b = radiance(earth(), ref, view(v.alt, v.sun, v.el, v.az));
-        for (std::size_t w = 0; w < kWavelengths.size(); ++w) {
-            const double total = b.single[w] + b.multiple[w];
-            ASSERT_GT(total, 0.0) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az;
-            const double e = std::abs(a.multiple[w] - b.multiple[w]) / total;
-            worst = std::max(worst, e);
-            EXPECT_LE(e, 0.03) << "alt " << v.alt << " sun " << v.sun << " el " << v.el << " az " << v.az << " λ "
-                               << kWavelengths[w];
-        }
-    }
+    const double worst = worst_multiple_difference(
+        ms, ref,
+        {{0, 30, 10, 0}, {0, 2, 10, 0}, {0, 2, 2, 180}, {0, -2, 2, 0}, {0, -4, 10, 90}, {0, -4, 30, 180},
+         {0, -8, 10, 0}, {0, -8, 45, 180}, {10e3, -4, 2, 0}, {10e3, -8, -10, 180}, {400e3, 10, -30, 0},
+         {400e3, -4, -30, 0}},
+        0.03);
     std::printf("grid rays %d / %d intervals against 128: worst |delta| / total %.2e\n", defaults.order1_ray_samples,
                 defaults.ray_samples, worst);
 }

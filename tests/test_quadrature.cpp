@@ -40,6 +40,19 @@ TEST(Quadrature, NodesIncreaseInsideTheIntervalAndWeightsSumToOne) {
 // ∫₀¹ x^d dx = 1/(d + 1), exactly for d ≤ 2n − 1; for d = 2n the error is the Gauss–Legendre
 // remainder on [0, 1], (n!)⁴ / ((2n + 1) ((2n)!)³) · f⁽²ⁿ⁾ = (n!)⁴ / ((2n + 1) ((2n)!)²): the
 // nodes and weights are the Gauss–Legendre ones, not merely some exact rule.
+TEST(Quadrature, CompileTimeFourPointRuleIsTheComputedOne) {
+    // kGauss4Node/kGauss4Weight (render.cpp's box filter and panels, the view quadrature's
+    // cancelling intervals) against Boost's Legendre zeros through unit_gauss_legendre(4),
+    // mapped to [−1, 1]: nodes increasing, so −x1, −x0, x0, x1.
+    const std::vector<double> r = unit_gauss_legendre(4);
+    const double x[4] = {-kGauss4Node[1], -kGauss4Node[0], kGauss4Node[0], kGauss4Node[1]};
+    const double w[4] = {kGauss4Weight[1], kGauss4Weight[0], kGauss4Weight[0], kGauss4Weight[1]};
+    for (int i = 0; i < 4; ++i) {
+        EXPECT_NEAR(2.0 * r[2 * i] - 1.0, x[i], 1e-15) << i;
+        EXPECT_NEAR(2.0 * r[2 * i + 1], w[i], 1e-15) << i;
+    }
+}
+
 TEST(Quadrature, ExactForPolynomialsUpToDegreeTwoNMinusOne) {
     for (int n = 1; n <= kMaxGaussPanelNodes; ++n) {
         const std::vector<double> r = unit_gauss_legendre(n);

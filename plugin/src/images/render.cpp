@@ -26,6 +26,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/version.hpp"
 
+#include "math/quadrature.hpp"
 #include "support/message_format.hpp"
 
 namespace airmass {
@@ -183,11 +184,11 @@ struct BoxContext {
     }
 };
 
-// 4-point Gauss–Legendre on [0, 1].
-constexpr double kGlX[4] = {0.5 - 0.5 * 0.8611363115940526, 0.5 - 0.5 * 0.3399810435848563,
-                            0.5 + 0.5 * 0.3399810435848563, 0.5 + 0.5 * 0.8611363115940526};
-constexpr double kGlW[4] = {0.5 * 0.3478548451374538, 0.5 * 0.6521451548625461, 0.5 * 0.6521451548625461,
-                            0.5 * 0.3478548451374538};
+// 4-point Gauss–Legendre on [0, 1] (math/quadrature.hpp).
+constexpr double kGlX[4] = {0.5 - 0.5 * kGauss4Node[1], 0.5 - 0.5 * kGauss4Node[0], 0.5 + 0.5 * kGauss4Node[0],
+                            0.5 + 0.5 * kGauss4Node[1]};
+constexpr double kGlW[4] = {0.5 * kGauss4Weight[1], 0.5 * kGauss4Weight[0], 0.5 * kGauss4Weight[0],
+                            0.5 * kGauss4Weight[1]};
 
 #include "../transport/view_march.inc"
 

@@ -5,6 +5,12 @@
 
 namespace airmass {
 
+// The 4-point Gauss–Legendre rule on [−1, 1] for kernels that need it at compile time: nodes
+// ±kGauss4Node[i], weights kGauss4Weight[i] (unit_gauss_legendre(4) is the same rule on [0, 1];
+// tests/test_quadrature.cpp checks the two agree).
+inline constexpr double kGauss4Node[2] = {0.339981043584856265, 0.861136311594052575};
+inline constexpr double kGauss4Weight[2] = {0.652145154862546143, 0.347854845137453857};
+
 // The largest Gauss–Legendre rule used whole; more nodes are split into panels.
 inline constexpr int kMaxGaussPanelNodes = 16;
 

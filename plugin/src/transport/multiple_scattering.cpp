@@ -38,6 +38,7 @@
 #include "airmass/simd.hpp"
 #include "airmass/spectral_table.hpp"
 #include "airmass/spectrum.hpp"
+#include "math/quadrature.hpp"
 
 namespace airmass {
 
