@@ -44,21 +44,8 @@ namespace airmass {
 
 // The implementation, once for baseline x86-64 and once for AVX2/FMA (the orders-of-
 // scattering transport loops gain ~1.4x from it, bench/portable_vs_native.sh).
-namespace {
-namespace baseline {
-#include "multiple_scattering_kernels.inc"
-}  // namespace baseline
-}  // namespace
-#if AIRMASS_SIMD_DISPATCH
-#pragma GCC push_options
-#pragma GCC target("avx2,fma")
-namespace {
-namespace avx2_fma {
-#include "multiple_scattering_kernels.inc"
-}  // namespace avx2_fma
-}  // namespace
-#pragma GCC pop_options
-#endif
+#define AIRMASS_SIMD_KERNELS "transport/multiple_scattering_kernels.inc"
+#include "math/simd_targets.inc"
 
 MultipleScattering precompute_multiple_scattering(const Atmosphere& atm, const MsSettings& requested) {
     AIRMASS_SIMD_RETURN(precompute_multiple_scattering_impl(atm, requested));

@@ -23,23 +23,8 @@
 namespace airmass {
 
 // The implementation, once for baseline x86-64 and once for AVX2/FMA (airmass/simd.hpp).
-namespace {
-namespace baseline {
-#include "view_march.inc"
-#include "single_scattering_kernels.inc"
-}  // namespace baseline
-}  // namespace
-#if AIRMASS_SIMD_DISPATCH
-#pragma GCC push_options
-#pragma GCC target("avx2,fma")
-namespace {
-namespace avx2_fma {
-#include "view_march.inc"
-#include "single_scattering_kernels.inc"
-}  // namespace avx2_fma
-}  // namespace
-#pragma GCC pop_options
-#endif
+#define AIRMASS_SIMD_KERNELS "transport/single_scattering_kernels.inc"
+#include "math/simd_targets.inc"
 
 void single_scattering(const Atmosphere& atm, const ViewRay& ray, RadianceOut out) {
     AIRMASS_SIMD_RETURN(single_scattering_impl(atm, ray, out));
