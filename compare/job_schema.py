@@ -1,17 +1,28 @@
 """job.json's schema, as the comparison scripts read it (docs/compare.md, "The job").
 
-`airmass compare` (plugin/cli/compare_plan.hpp: kJobFormat, kJobSchemaVersion) writes
-"format" and "schema_version" into DIR/job.json; blender_render.py and report.py load it
-through `load`, which refuses a job of another format or version with an error naming the
-field, instead of failing later on a missing key. The CLI prints the version it writes with
-`airmass compare --list-paths --json` ("job_schema_version"); tests/python/test_compare_plan.py
-checks that it equals SCHEMA_VERSION here.
+`airmass compare` writes "format" and "schema_version" into DIR/job.json; both come from
+plan.json beside this file (the comparison's one table of paths and its job schema, built into
+the CLI: airmass/compare_plan.hpp), so the CLI and these scripts cannot disagree unless they
+come from different builds. blender_render.py and report.py load a job through `load`, which
+refuses a job of another format or version with an error naming the field, instead of failing
+later on a missing key. tests/python/test_compare_plan.py checks that the CLI's
+`airmass compare --list-paths --json` ("job_schema_version") equals SCHEMA_VERSION here.
 """
 
 import json
+import os
 
-FORMAT = "airmass-compare-job"
-SCHEMA_VERSION = 2
+PLAN_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "plan.json")
+
+
+def _plan():
+    with open(PLAN_FILE, encoding="utf-8") as f:
+        return json.load(f)
+
+
+_PLAN = _plan()
+FORMAT = _PLAN["job_format"]
+SCHEMA_VERSION = _PLAN["job_schema_version"]
 
 
 class JobSchemaError(ValueError):

@@ -10,6 +10,7 @@ physically related fields (planet radius vs atmosphere top) are checked by the l
 when an operator runs, and its message names the field and the allowed range.
 """
 
+import json
 import math
 import os
 
@@ -115,6 +116,33 @@ class AirmassConstituent(bpy.types.PropertyGroup):
     profile_kind: StringProperty(name="Profile", description="Density profile of the scene (read only)")
     preset_scale_height: FloatProperty(name="Preset Scale Height (km)", default=0.0,
                                        description="The scene's own scale height, km (read only)")
+
+
+
+# ---- the comparison paths: compare/plan.json, the one table ------------------------------------
+# The zip carries the comparison's plan data beside its scripts (compare_scripts/plan.json, the
+# file the bundled `airmass compare` was built with): the Paths checkboxes are its Blender paths,
+# in its order, with its labels and defaults. A zip without it is broken; the add-on then does
+# not enable, naming the file.
+COMPARE_PLAN_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "compare_scripts", "plan.json")
+
+
+def _compare_path_table():
+    try:
+        with open(COMPARE_PLAN_FILE, encoding="utf-8") as f:
+            plan = json.load(f)
+        paths = [p for p in plan["paths"] if p["renderer"] == "blender"]
+        items = [(p["name"].upper(), p["label"], p["description"]) for p in paths]
+        defaults = {p["name"].upper() for p in paths if p["default"]}
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ImportError("Airmass: the comparison's plan %s is missing or unreadable (%s: %s); reinstall the "
+                          "add-on zip" % (COMPARE_PLAN_FILE, type(e).__name__, e)) from None
+    if not items:
+        raise ImportError("Airmass: the comparison's plan %s lists no Blender paths" % COMPARE_PLAN_FILE)
+    return items, defaults
+
+
+_COMPARE_PATH_ITEMS, _COMPARE_PATH_DEFAULTS = _compare_path_table()
 
 
 class AirmassSettings(bpy.types.PropertyGroup):
@@ -286,15 +314,8 @@ class AirmassSettings(bpy.types.PropertyGroup):
         description="Independent Blender renders per volume path; their spread measures the noise (at least 2)")
     compare_paths: EnumProperty(
         name="Paths", options={"ENUM_FLAG"},
-        default={"SKY_TEXTURE", "ANALYTIC_VOLUME", "VDB_VOLUME"},
-        items=[("SKY_TEXTURE", "Sky Texture", "The sky EXR as World, against the spectral native image (pixel means)"),
-               ("ANALYTIC_VOLUME", "Analytic Volume",
-                "The node-tree shell volume lit by a Sun lamp, against the renderer-matched native image"),
-               ("VDB_VOLUME", "VDB Volume",
-                "The VDB of the box the camera sees (View Distance), against the renderer-matched native image"),
-               ("ANALYTIC_VOLUME_MS", "Multiple Scattering",
-                "The analytic volume with Cycles' volume and diffuse bounces, against the renderer-matched native "
-                "image with multiple scattering (slower: every order of scattering is path traced)")],
+        default=_COMPARE_PATH_DEFAULTS,
+        items=_COMPARE_PATH_ITEMS,
         description="Which ways of bringing the atmosphere into Blender are rendered and compared")
     compare_volume_modes: EnumProperty(
         name="Volume Renders", options={"ENUM_FLAG"}, default={"SPLIT", "RGB"},

@@ -14,7 +14,7 @@
 //       --max-distance KM --progress-json FILE|-|fd:N --no-blender --quiet]
 //   airmass compare --list-paths [--json]
 //
-// This file runs a plan (compare_plan.hpp: the path table, the native renders and steps each
+// This file runs a plan (airmass/compare_plan.hpp over compare/plan.json: the path table, the native renders and steps each
 // path needs, the job schema, the checks of the options): options → plan → run → report.
 // What it does, in order (every file lands in the staging folder beside DIR, swapped in whole
 // as DIR once the run completes: OutputFolder below; DIR keeps its previous set until then):
@@ -75,7 +75,7 @@
 #include "airmass/sky.hpp"
 #include "airmass/vdb_export.hpp"
 #include "commands.hpp"
-#include "compare_plan.hpp"
+#include "airmass/compare_plan.hpp"
 #include "vdb_module.hpp"
 #include "pov_scene.hpp"
 #include "render_options.hpp"
@@ -91,7 +91,7 @@ struct CompareOptions {
     std::string scene_path, preset, output;
     std::optional<int> width, height;
     bool panoramic = false;
-    compare::PlanInputs plan;  // what is rendered (compare_plan.hpp)
+    compare::PlanInputs plan;  // what is rendered (airmass/compare_plan.hpp)
     int sky_min_width = 2048;
     int sky_max_width = 8192;
     std::optional<double> voxel_size_km;
@@ -928,7 +928,13 @@ void run_compare(const CompareOptions& o) {
     compare::PlanInputs in = o.plan;
     in.renderers = !o.no_blender;
     in.report = !o.no_report;
-    const compare::Plan plan = compare::make_plan(in);
+    const compare::Plan plan = [&] {
+        try {
+            return compare::make_plan(in);
+        } catch (const compare::PlanError& e) {
+            throw CliError(e.what());  // exit 2, the option named
+        }
+    }();
     ProgressEvents events(o.progress_json);
     std::unique_ptr<OutputFolder> folder;
     try {

@@ -6,7 +6,8 @@
 Fails unless the zip holds airmass_blender/ with bl_info (legacy install, Blender 3.x) and a
 blender_manifest.toml (extension, 4.2+) whose `platforms` list is exactly what the zip
 carries: linux-x64 <=> libairmass_c.so, windows-x64 <=> airmass_c.dll, macos-* <=> a dylib.
-Linux and Windows must both be there, and no other shared library (one file per platform).
+Linux and Windows must both be there, and no other shared library (one file per platform); the
+comparison's plan data (compare_scripts/plan.json), which the add-on's Paths checkboxes read.
 """
 import re
 import sys
@@ -20,7 +21,7 @@ def main():
     def has(n):
         return ("airmass_blender/" + n) in names
     for required in ("__init__.py", "native.py", "compat.py", "blender_manifest.toml", "libairmass_c.so",
-                     "airmass_c.dll"):
+                     "airmass_c.dll", "compare_scripts/plan.json"):
         if not has(required):
             problems.append("missing airmass_blender/" + required)
     init = zipfile.ZipFile(path).read("airmass_blender/__init__.py").decode() if has("__init__.py") else ""

@@ -4,8 +4,9 @@ paths, one schema version.
 What is checked, and against what:
   * `airmass compare --list-paths --json` is the list every other place uses: the plan a
     `--no-blender` run writes into job.json names the same paths, renderers, references and
-    titles in the same order; the add-on's Paths checkboxes (properties.py, read with `ast`:
-    no Blender needed) are exactly its Blender paths; the text form names each path;
+    titles in the same order; it is compare/plan.json's table field by field (the file the CLI
+    is built from, and the add-on's Paths checkboxes and job_schema.py read); the text form
+    names each path;
   * the job schema: job.json carries "format" and "schema_version" equal to what the CLI's
     list announces and to compare/job_schema.py's SCHEMA_VERSION (the version the scripts
     read); report.py (system Python) and blender_render.py (headless Blender, skipped without
@@ -99,22 +100,44 @@ def test_plan_renders_what_the_list_says(path_list, no_blender_job):
     assert job["plan"]["steps"][:len(job["plan"]["natives"])] == job["plan"]["natives"]
 
 
-def test_the_addons_paths_are_the_clis_blender_paths(path_list):
-    """properties.py's Compare Paths checkboxes (upper-case identifiers) are the CLI's Blender
-    paths; compare.py keeps no list of its own (it asks the CLI: blender_paths())."""
-    tree = ast.parse(open(PROPERTIES, encoding="utf-8").read())
-    items = None
+def test_the_cli_was_built_from_plan_json(path_list):
+    """compare/plan.json is the one table: the CLI's list is that file's paths, field by field,
+    in its order, and announces its job schema version."""
+    with open(os.path.join(COMPARE, "plan.json"), encoding="utf-8") as f:
+        plan = json.load(f)
+    assert path_list["job_schema_version"] == plan["job_schema_version"]
+    listed = path_list["paths"]
+    assert [p["name"] for p in listed] == [p["name"] for p in plan["paths"]]
+    for got, want in zip(listed, plan["paths"]):
+        for k in ("label", "description", "title", "reference", "renderer", "renders", "default", "step_cost",
+                  "render_count"):
+            assert got[k] == want[k], (want["name"], k)
+        # the natives every run makes, then the path's own
+        assert got["natives"][len(got["natives"]) - len(want["natives"]):] == want["natives"], want["name"]
+        assert got["volume_modes"] == (want["modes"] == "volume") and got["ms_modes"] == (want["modes"] == "ms")
+
+
+def test_the_addons_paths_come_from_plan_json():
+    """properties.py's Compare Paths checkboxes are built from the zip's compare_scripts/plan.json
+    (tests/blender/test_material_graph.py checks the registered items against the CLI's list in
+    Blender); neither properties.py nor compare.py names a path itself."""
+    props = open(PROPERTIES, encoding="utf-8").read()
+    assert 'os.path.join(os.path.dirname(os.path.abspath(__file__)), "compare_scripts", "plan.json")' in props
+    tree = ast.parse(props)
     for node in ast.walk(tree):
         if isinstance(node, ast.AnnAssign) and getattr(node.target, "id", None) == "compare_paths":
-            for kw in node.annotation.keywords:
-                if kw.arg == "items":
-                    items = [ast.literal_eval(e.elts[0]) for e in kw.value.elts]
-    assert items is not None, "compare_paths not found in properties.py"
-    blender = [p["name"] for p in path_list["paths"] if p["renderer"] == "blender"]
-    assert sorted(i.lower() for i in items) == sorted(blender)
+            kws = {kw.arg: kw.value for kw in node.annotation.keywords}
+            assert isinstance(kws["items"], ast.Name) and isinstance(kws["default"], ast.Name), \
+                "compare_paths' items and default must come from plan.json, not literals"
+            break
+    else:
+        raise AssertionError("compare_paths not found in properties.py")
+    with open(os.path.join(COMPARE, "plan.json"), encoding="utf-8") as f:
+        names = [p["name"] for p in json.load(f)["paths"]]
     source = open(os.path.join(REPO, "addon", "airmass_blender", "compare.py"), encoding="utf-8").read()
-    for name in (p["name"] for p in path_list["paths"]):
+    for name in names:
         assert '"%s"' % name not in source, "compare.py names path %s itself" % name
+        assert '"%s"' % name.upper() not in props, "properties.py names path %s itself" % name
 
 
 def test_list_paths_text_names_each_path(airmass_bin, path_list):

@@ -1,48 +1,61 @@
-// The plan of `airmass compare` (docs/compare.md): the one table of comparison paths, which
-// native renders, inputs and renderer steps each path needs, the job schema (job.json's
-// "format" and "schema_version") and the checks of the plan's inputs. Values only — no
-// processes, no files: cmd_compare.cpp builds a Plan from its options, runs it (native
-// renders, Blender / POV-Ray child processes, the report) and reports.
+// The plan of `airmass compare` (docs/compare.md, "The plan and the job"): the one table of
+// comparison paths, which native renders, inputs and renderer steps each path needs, the job
+// schema (job.json's "format" and "schema_version") and the checks of the plan's inputs.
+// Values only — no processes, no files: the CLI (plugin/cli/cmd_compare.cpp) builds a Plan
+// from its options, runs it (native renders, Blender / POV-Ray child processes, the report)
+// and reports.
 //
-// The table reaches everything else through the CLI: job.json's "plan" (blender_render.py,
-// report.py) and `airmass compare --list-paths --json` (the add-on's list of paths).
+// The table and the schema version are data, compare/plan.json, built into this library
+// (plugin/CMakeLists.txt) and read as they are by compare/job_schema.py and by the add-on's
+// Paths checkboxes (the zip's compare_scripts/plan.json): one list. The table reaches the
+// scripts through job.json's "plan" too (blender_render.py, report.py).
 #pragma once
 
 #include <initializer_list>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-namespace airmass::cli::compare {
+namespace airmass::compare {
 
-// job.json's schema. "schema_version" counts incompatible changes; compare/job_schema.py
-// (read by blender_render.py and report.py) holds the version it understands and refuses any
-// other, naming the field (tests/python/test_compare_plan.py checks the two agree).
-inline constexpr const char* kJobFormat = "airmass-compare-job";
-inline constexpr int kJobSchemaVersion = 2;
+// A plan input out of its range or not one of its allowed values; the message names the
+// option ("compare: --seeds 1: must be in [2, 1000]"). The CLI exits 2 with it.
+struct PlanError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+// job.json's schema (compare/plan.json: "job_format", "job_schema_version"). The version
+// counts incompatible changes; compare/job_schema.py (read by blender_render.py and
+// report.py) reads the same file and refuses a job of any other version, naming the field.
+const std::string& job_format();
+int job_schema_version();
 
 enum class Renderer { blender, povray };
 const char* renderer_name(Renderer r);
 
-// One comparison path: what renders it, against which native image, and what it needs.
+// One comparison path (compare/plan.json's "paths"): what renders it, against which native
+// image, and what it needs.
 struct PathInfo {
-    const char* name;
-    const char* reference;  // the native image it is compared with (report.py)
-    const char* title;      // its title in the report
-    Renderer renderer;      // blender: compare/blender_render.py; povray: the scene of `airmass pov`
-    const char* renders;    // what the renderer renders (--list-paths)
-    std::vector<const char*> natives;  // the native renders it needs beyond kAlwaysNative
-    bool volume_modes;      // rendered once per --volume-modes entry (split / rgb / rgb_dither)
-    bool ms_modes;          // rendered once per --ms-modes entry (dither / closures)
-    bool is_default;        // in --paths' default
-    double step_cost;       // relative wall time of its renderer step (progress weights; a guess)
-    const char* render_count;  // how many renders its step makes, in the plan's terms
+    std::string name;
+    std::string label, description;  // the add-on's Paths checkbox
+    std::string title;               // its title in the report
+    std::string reference;           // the native image it is compared with (report.py)
+    Renderer renderer;               // blender: compare/blender_render.py; povray: the scene of `airmass pov`
+    std::string renders;             // what the renderer renders (--list-paths)
+    std::vector<std::string> natives;  // the native renders it needs beyond those every run makes
+    bool volume_modes = false;       // rendered once per --volume-modes entry (split / rgb / rgb_dither)
+    bool ms_modes = false;           // rendered once per --ms-modes entry (dither / closures)
+    bool is_default = false;         // in --paths' default
+    double step_cost = 1.0;          // relative wall time of its renderer step (progress weights; a guess)
+    std::string render_count;        // how many renders its step makes, in the plan's terms
 };
 
-// The comparison paths, in report order: the one list.
+// The comparison paths, in report order: the one list (compare/plan.json, read and checked
+// once; a malformed table is a build defect: std::logic_error naming the field).
 const std::vector<PathInfo>& path_table();
 // The entry of `name`; std::logic_error when there is none (names come from the table).
 const PathInfo& path_info(std::string_view name);
@@ -84,7 +97,7 @@ struct Plan {
     bool needs_constituents() const;  // a volume path: analytic.json
 };
 
-// Checks every input (a CliError names the option and its range or its allowed values) and
+// Checks every input (a PlanError names the option and its range or its allowed values) and
 // lays out the run.
 Plan make_plan(const PlanInputs& in);
 
@@ -106,4 +119,4 @@ nlohmann::json plan_json(const Plan& plan, const nlohmann::json& job);
 nlohmann::json path_list_json();
 std::string path_list_text();
 
-}  // namespace airmass::cli::compare
+}  // namespace airmass::compare
