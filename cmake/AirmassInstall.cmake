@@ -14,10 +14,12 @@ include(CMakePackageConfigHelpers)
 
 set(AIRMASS_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/airmass)
 
-# ---- headers: those of the installed libraries (not image_io.hpp / terminal.hpp: airmass_image_io)
+# ---- headers: those of the installed libraries (not image_io.hpp / terminal.hpp: airmass_image_io;
+#      not compare_plan.hpp: airmass_compare, the CLI's comparison plan)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/plugin/include/airmass
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-        FILES_MATCHING PATTERN "*.hpp" PATTERN "image_io.hpp" EXCLUDE PATTERN "terminal.hpp" EXCLUDE)
+        FILES_MATCHING PATTERN "*.hpp" PATTERN "image_io.hpp" EXCLUDE PATTERN "terminal.hpp" EXCLUDE
+        PATTERN "compare_plan.hpp" EXCLUDE)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/vdb_export/include/airmass
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} FILES_MATCHING PATTERN "*.hpp")
 install(FILES ${PROJECT_SOURCE_DIR}/plugin/capi/include/airmass/airmass_c.h

@@ -4,7 +4,7 @@
 # read by a build of other sources. Rewrites OUT only when the digest changes.
 file(GLOB_RECURSE SOURCES ${PLUGIN_DIR}/src/*.cpp ${PLUGIN_DIR}/src/*.inc ${PLUGIN_DIR}/src/*.hpp
      ${PLUGIN_DIR}/include/airmass/*.hpp)
-list(FILTER SOURCES EXCLUDE REGEX "plugin/src/io/")
+list(FILTER SOURCES EXCLUDE REGEX "plugin/src/(io|compare)/|include/airmass/compare_plan\\.hpp$")
 list(SORT SOURCES)
 set(_all "")
 foreach(_f IN LISTS SOURCES)

@@ -685,7 +685,7 @@ def main(argv):
         job = job_schema.load(job_path)
     except job_schema.JobSchemaError as e:
         raise SystemExit("blender_render.py: %s" % e) from None
-    paths = [p["name"] for p in job["plan"]["all_paths"]]  # compare_plan.cpp's path table, the one list
+    paths = [p["name"] for p in job["plan"]["all_paths"]]  # compare/plan.json's path table, the one list
     if path not in paths:
         raise SystemExit("blender_render.py: unknown path %r (the job's paths: %s)" % (path, "|".join(paths)))
     planned = job["plan"]["blender_renders"].get(path)
@@ -719,7 +719,7 @@ def main(argv):
     info["render_seconds"] = render_seeds(scene, job, path, out_dir, sun_obj)
     made = RENDERS[0]
     if planned is not None and made != planned:
-        raise RuntimeError("made %d renders where the job's plan says %d (compare_plan.cpp planned_renders "
+        raise RuntimeError("made %d renders where the job's plan says %d (plugin/src/compare/plan.cpp planned_renders "
                            "and render_seeds disagree)" % (made, planned))
     info["renders"] = made
     info["modes"] = list(info["render_seconds"].keys())

@@ -15,18 +15,27 @@ import os
 PLAN_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "plan.json")
 
 
-def _plan():
-    with open(PLAN_FILE, encoding="utf-8") as f:
-        return json.load(f)
-
-
-_PLAN = _plan()
-FORMAT = _PLAN["job_format"]
-SCHEMA_VERSION = _PLAN["job_schema_version"]
-
-
 class JobSchemaError(ValueError):
     """The job is not one these scripts read; the message names the field."""
+
+
+def _plan_schema():
+    """(job_format, job_schema_version) of plan.json beside this file; JobSchemaError naming the
+    file and the field when it is missing or malformed (the scripts came without it)."""
+    try:
+        with open(PLAN_FILE, encoding="utf-8") as f:
+            plan = json.load(f)
+        fmt, version = plan["job_format"], plan["job_schema_version"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise JobSchemaError("%s: the comparison's plan is missing or unreadable (%s: %s); run the scripts from "
+                             "the folder the airmass CLI came with" % (PLAN_FILE, type(e).__name__, e)) from None
+    if not isinstance(fmt, str) or not isinstance(version, int):
+        raise JobSchemaError("%s: field \"job_format\" must be a string and \"job_schema_version\" an integer"
+                             % PLAN_FILE)
+    return fmt, version
+
+
+FORMAT, SCHEMA_VERSION = _plan_schema()
 
 
 def check(job, where="job.json"):

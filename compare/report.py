@@ -48,7 +48,7 @@ import job_schema  # noqa: E402
 
 def path_table(job):
     """{path: {"reference": native image, "title": ..., "renderer": "blender" | "povray"}}: the
-    comparison paths as the job's plan carries them (compare_plan.cpp's path table, the one list)."""
+    comparison paths as the job's plan carries them (compare/plan.json's path table, the one list)."""
     return {p["name"]: dict(p, renderer=p.get("renderer", "blender")) for p in job["plan"]["all_paths"]}
 
 

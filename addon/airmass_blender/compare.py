@@ -32,10 +32,12 @@ Positions: 1 Blender unit = 1 km (or 1 m, the panel's Length Unit), the frame of
 volumes and of docs/scene.md (origin on the ground below the observer, Z up, planet centre
 at (0, 0, −R)); the CLI wants metres.
 
-Paths. The add-on keeps no list of comparison paths: `path_list()` is the bundled CLI's
-`airmass compare --list-paths --json` (read once per CLI file when availability is checked),
-the add-on offers its Blender paths (`blender_paths()`; the Paths checkboxes are tested to be
-exactly these) and weights its progress by each path's `step_cost`. Without a working CLI,
+Paths. The one table of comparison paths is compare/plan.json (the zip's
+compare_scripts/plan.json, the file the bundled CLI is built from): the Paths checkboxes are
+its Blender paths (properties.py). `path_list()` is the bundled CLI's
+`airmass compare --list-paths --json` (read once per CLI file when availability is checked:
+it also shows the CLI runs); the add-on offers its Blender paths (`blender_paths()`; the
+checkboxes are tested to be exactly these) and weights its progress by each path's `step_cost`. Without a working CLI,
 Compare with Native is not available and says why (NotAvailable).
 
 `run(context, ...)` does all of it synchronously (for scripts); the operator

@@ -121,24 +121,29 @@ class AirmassConstituent(bpy.types.PropertyGroup):
 
 # ---- the comparison paths: compare/plan.json, the one table ------------------------------------
 # The zip carries the comparison's plan data beside its scripts (compare_scripts/plan.json, the
-# file the bundled `airmass compare` was built with): the Paths checkboxes are its Blender paths,
-# in its order, with its labels and defaults. A zip without it is broken; the add-on then does
-# not enable, naming the file.
-COMPARE_PLAN_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "compare_scripts", "plan.json")
+# file the bundled `airmass compare` was built with); a source checkout used as the add-on folder
+# (tests: `blender --addon <repo>/addon`) has it at <repo>/compare/plan.json. The Paths checkboxes
+# are its Blender paths, each with the bit the file fixes for it (a saved .blend stores the bits,
+# so they must not move when paths are added), in the order of those bits, with its labels and
+# defaults. Without a readable file the add-on does not enable, naming the file.
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+COMPARE_PLAN_FILES = (os.path.join(_PACKAGE_DIR, "compare_scripts", "plan.json"),
+                      os.path.join(_PACKAGE_DIR, "..", "..", "compare", "plan.json"))
 
 
 def _compare_path_table():
+    path = next((f for f in COMPARE_PLAN_FILES if os.path.isfile(f)), COMPARE_PLAN_FILES[0])
     try:
-        with open(COMPARE_PLAN_FILE, encoding="utf-8") as f:
+        with open(path, encoding="utf-8") as f:
             plan = json.load(f)
-        paths = [p for p in plan["paths"] if p["renderer"] == "blender"]
-        items = [(p["name"].upper(), p["label"], p["description"]) for p in paths]
-        defaults = {p["name"].upper() for p in paths if p["default"]}
-    except (OSError, ValueError, KeyError, TypeError) as e:
+        paths = sorted((p for p in plan["paths"] if p["renderer"] == "blender"), key=lambda p: p["addon_flag"])
+        items = [(p["name"].upper(), p["label"], p["description"], int(p["addon_flag"])) for p in paths]
+        defaults = {p["name"].upper() for p in paths if p["default"] is True}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
         raise ImportError("Airmass: the comparison's plan %s is missing or unreadable (%s: %s); reinstall the "
-                          "add-on zip" % (COMPARE_PLAN_FILE, type(e).__name__, e)) from None
+                          "add-on zip" % (path, type(e).__name__, e)) from None
     if not items:
-        raise ImportError("Airmass: the comparison's plan %s lists no Blender paths" % COMPARE_PLAN_FILE)
+        raise ImportError("Airmass: the comparison's plan %s lists no Blender paths" % path)
     return items, defaults
 
 

@@ -14,7 +14,8 @@
 //       --max-distance KM --progress-json FILE|-|fd:N --no-blender --quiet]
 //   airmass compare --list-paths [--json]
 //
-// This file runs a plan (airmass/compare_plan.hpp over compare/plan.json: the path table, the native renders and steps each
+// This file runs a plan (airmass/compare_plan.hpp over compare/plan.json: the path table, the
+// native renders and steps each
 // path needs, the job schema, the checks of the options): options → plan → run → report.
 // What it does, in order (every file lands in the staging folder beside DIR, swapped in whole
 // as DIR once the run completes: OutputFolder below; DIR keeps its previous set until then):
@@ -181,12 +182,15 @@ fs::path find_scripts_dir(const std::string& given) {
         }
         candidates.emplace_back(fs::current_path() / "compare");
     }
+    // The scripts and what they import: job_schema.py, which reads plan.json (the plan's data).
     for (const auto& c : candidates)
-        if (fs::is_regular_file(c / "blender_render.py") && fs::is_regular_file(c / "report.py"))
+        if (fs::is_regular_file(c / "blender_render.py") && fs::is_regular_file(c / "report.py") &&
+            fs::is_regular_file(c / "job_schema.py") && fs::is_regular_file(c / "plan.json"))
             return fs::weakly_canonical(c);
     std::string tried;
     for (const auto& c : candidates) tried += " " + c.string();
-    throw CliError("compare: cannot find the compare scripts (blender_render.py, report.py); tried" + tried +
+    throw CliError("compare: cannot find the compare scripts (blender_render.py, report.py, job_schema.py, "
+                   "plan.json); tried" + tried +
                    " (pass --scripts DIR or set AIRMASS_COMPARE_DIR)");
 }
 
@@ -654,8 +658,8 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
         }
     }
     // The plan, for blender_render.py, report.py and the add-on: every path (the one table,
-    // compare_plan.cpp), those requested, the steps of the progress events, and how many Cycles
-    // renders each Blender path makes (and POV-Ray processes each POV-Ray path runs).
+    // compare/plan.json), those requested, the steps of the progress events, and how many
+    // Cycles renders each Blender path makes (and POV-Ray processes each POV-Ray path runs).
     job["plan"] = compare::plan_json(plan, job);
     write_text(dir / "job.json", job.dump(2) + "\n");
     if (o.no_blender) return;

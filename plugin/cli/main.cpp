@@ -7,6 +7,7 @@
 #include <string>
 
 #include "airmass/version.hpp"
+#include "airmass/compare_plan.hpp"
 #include "commands.hpp"
 
 namespace {
@@ -59,6 +60,15 @@ int main(int argc, char** argv) {
     // writer reports it and removes its temporary (airmass/atomic_file.hpp), instead of
     // SIGXFSZ ending the process with the temporary left behind.
     std::signal(SIGXFSZ, SIG_IGN);
+    // The comparison's plan (compare/plan.json, built in) is read while the commands are set
+    // up; a malformed one is a build defect, said here with the field it names (exit 70),
+    // not an uncaught exception in every command.
+    try {
+        (void)airmass::compare::path_table();
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "airmass: internal error: %s\n", e.what());
+        return 70;
+    }
     CLI::App app{"airmass: a planet's atmosphere around a fast, well-tested Chapman function"};
     // Listed in --help; the fast path above answers it alone.
     app.set_version_flag("-V,--version", std::string("airmass ") + airmass::version_string());

@@ -235,6 +235,12 @@ def test_path_list(ctx):
     items = bpy.context.scene.airmass.bl_rna.properties["compare_paths"].enum_items
     check(sorted(i.identifier.lower() for i in items) == sorted(want), "Paths checkboxes %r, want %r" %
           ([i.identifier for i in items], want))
+    # Each checkbox keeps the bit compare/plan.json fixes for it (saved .blend files store the bits).
+    flags = {p["name"].upper(): p["addon_flag"] for p in listed if p["renderer"] == "blender"}
+    check({i.identifier: i.value for i in items} == flags, "Paths checkbox bits %r, want %r" %
+          ({i.identifier: i.value for i in items}, flags))
+    check({"SKY_TEXTURE": 1, "ANALYTIC_VOLUME": 2, "VDB_VOLUME": 4, "ANALYTIC_VOLUME_MS": 8} == flags,
+          "the Paths bits moved: %r (a saved .blend would select other paths)" % flags)
     old = os.environ.get(cmp.CLI_ENV)
     os.environ[cmp.CLI_ENV] = os.path.join(ctx.tmp, "no-such-airmass")
     try:

@@ -6,8 +6,9 @@
 Fails unless the zip holds airmass_blender/ with bl_info (legacy install, Blender 3.x) and a
 blender_manifest.toml (extension, 4.2+) whose `platforms` list is exactly what the zip
 carries: linux-x64 <=> libairmass_c.so, windows-x64 <=> airmass_c.dll, macos-* <=> a dylib.
-Linux and Windows must both be there, and no other shared library (one file per platform); the
-comparison's plan data (compare_scripts/plan.json), which the add-on's Paths checkboxes read.
+Linux and Windows must both be there, and no other shared library (one file per platform). The
+zip must also carry the comparison's plan data (compare_scripts/plan.json), which the add-on's
+Paths checkboxes read.
 """
 import re
 import sys

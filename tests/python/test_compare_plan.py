@@ -109,8 +109,8 @@ def test_the_cli_was_built_from_plan_json(path_list):
     listed = path_list["paths"]
     assert [p["name"] for p in listed] == [p["name"] for p in plan["paths"]]
     for got, want in zip(listed, plan["paths"]):
-        for k in ("label", "description", "title", "reference", "renderer", "renders", "default", "step_cost",
-                  "render_count"):
+        for k in ("addon_flag", "label", "description", "title", "reference", "renderer", "renders", "default",
+                  "step_cost", "render_count"):
             assert got[k] == want[k], (want["name"], k)
         # the natives every run makes, then the path's own
         assert got["natives"][len(got["natives"]) - len(want["natives"]):] == want["natives"], want["name"]
@@ -122,7 +122,7 @@ def test_the_addons_paths_come_from_plan_json():
     (tests/blender/test_material_graph.py checks the registered items against the CLI's list in
     Blender); neither properties.py nor compare.py names a path itself."""
     props = open(PROPERTIES, encoding="utf-8").read()
-    assert 'os.path.join(os.path.dirname(os.path.abspath(__file__)), "compare_scripts", "plan.json")' in props
+    assert 'os.path.join(_PACKAGE_DIR, "compare_scripts", "plan.json")' in props
     tree = ast.parse(props)
     for node in ast.walk(tree):
         if isinstance(node, ast.AnnAssign) and getattr(node.target, "id", None) == "compare_paths":

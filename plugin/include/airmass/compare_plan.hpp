@@ -41,6 +41,7 @@ const char* renderer_name(Renderer r);
 // image, and what it needs.
 struct PathInfo {
     std::string name;
+    int addon_flag = 0;              // the add-on's Paths checkbox bit (a power of two, fixed); 0: not offered
     std::string label, description;  // the add-on's Paths checkbox
     std::string title;               // its title in the report
     std::string reference;           // the native image it is compared with (report.py)
@@ -114,6 +115,18 @@ int planned_renders(const nlohmann::json& job, const std::string& path);
 
 // job.json's "plan": the table, the requested paths, the steps and the renders per path.
 nlohmann::json plan_json(const Plan& plan, const nlohmann::json& job);
+
+namespace detail {
+// The table and schema of a plan document (compare/plan.json's format), every field checked:
+// std::logic_error naming the path and the field otherwise. path_table() is this of the
+// built-in file; exposed for the tests of malformed documents.
+struct PlanData {
+    std::string job_format;
+    int job_schema_version = 0;
+    std::vector<PathInfo> paths;
+};
+PlanData parse_plan(std::string_view document);
+}  // namespace detail
 
 // `airmass compare --list-paths [--json]`.
 nlohmann::json path_list_json();

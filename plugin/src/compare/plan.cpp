@@ -54,14 +54,6 @@ bool contains(const std::vector<std::string>& v, std::string_view s) {
 }
 
 
-// compare/plan.json, parsed and checked once. Every field is required and typed; a defect
-// names the path and the field.
-struct PlanData {
-    std::string job_format;
-    int job_schema_version = 0;
-    std::vector<PathInfo> paths;
-};
-
 [[noreturn]] void bad_plan(const std::string& where, const std::string& what) {
     throw std::logic_error("compare/plan.json: " + where + ": " + what);
 }
@@ -80,12 +72,16 @@ std::string text(const json& o, const char* key, const std::string& where) {
     return s;
 }
 
-PlanData parse_plan_data() {
+}  // namespace
+
+// compare/plan.json's format: every field required and typed; a defect names the path and
+// the field.
+detail::PlanData detail::parse_plan(std::string_view document) {
     json doc;
     try {
-        doc = json::parse(detail::kPlanJson, detail::kPlanJson + detail::kPlanJsonSize);
+        doc = json::parse(document.begin(), document.end());
     } catch (const json::exception& e) {
-        bad_plan("", std::string("not JSON: ") + e.what());
+        bad_plan("top level", std::string("not JSON: ") + e.what());
     }
     if (text(doc, "format", "top level") != "airmass-compare-plan") bad_plan("top level", "\"format\" is not airmass-compare-plan");
     PlanData d;
@@ -97,6 +93,14 @@ PlanData parse_plan_data() {
         PathInfo info;
         info.name = text(p, "name", where);
         if (!names.insert(info.name).second) bad_plan(where, "the name " + info.name + " is given twice");
+        if (!p.contains("addon_flag")) bad_plan(where, "no field \"addon_flag\"");
+        if (!p["addon_flag"].is_null()) {
+            const json& f = p["addon_flag"];
+            const long long v = f.is_number_unsigned() ? f.get<long long>() : 0;
+            if (v <= 0 || v > (1LL << 30) || (v & (v - 1)) != 0)
+                bad_plan(where, "\"addon_flag\" is not null or a power of two up to 2^30");
+            info.addon_flag = int(v);
+        }
         info.label = text(p, "label", where);
         info.description = text(p, "description", where);
         info.title = text(p, "title", where);
@@ -122,6 +126,13 @@ PlanData parse_plan_data() {
         d.paths.push_back(std::move(info));
     }
     if (d.paths.empty()) bad_plan("paths", "empty");
+    std::set<int> flags;
+    for (const PathInfo& p : d.paths) {
+        if ((p.renderer == Renderer::blender) != (p.addon_flag != 0))
+            bad_plan(p.name, "\"addon_flag\" must be set for a blender path and null for any other");
+        if (p.addon_flag != 0 && !flags.insert(p.addon_flag).second)
+            bad_plan(p.name, "\"addon_flag\" " + std::to_string(p.addon_flag) + " is given twice");
+    }
     for (const PathInfo& p : d.paths) {
         const bool known = std::find(kNativeOrder.begin(), kNativeOrder.end(), p.reference) != kNativeOrder.end();
         if (!known) bad_plan(p.name, "reference " + p.reference + " is not a native render");
@@ -132,8 +143,11 @@ PlanData parse_plan_data() {
     return d;
 }
 
-const PlanData& plan_data() {
-    static const PlanData data = parse_plan_data();
+namespace {
+
+const detail::PlanData& plan_data() {
+    static const detail::PlanData data = detail::parse_plan(
+        std::string_view(reinterpret_cast<const char*>(detail::kPlanJson), detail::kPlanJsonSize));
     return data;
 }
 
@@ -285,6 +299,7 @@ json path_list_json() {
         for (const char* n : kAlwaysNative) natives.push_back(n);
         for (const auto& n : p.natives) natives.push_back(n);
         paths.push_back({{"name", p.name},
+                         {"addon_flag", p.addon_flag ? json(p.addon_flag) : json(nullptr)},
                          {"label", p.label},
                          {"description", p.description},
                          {"renderer", renderer_name(p.renderer)},
