@@ -3,7 +3,8 @@
 // and the scalar path (chapman_airmass.hpp, airmass_scaled_fast), four double lanes per AVX
 // register, with the square roots, the shared division, the cell indices and exp(−d) as vector
 // instructions, and the table read per lane (four 256-bit loads, three FMAs) followed by one 4×4
-// transpose and the Horner step in u on all four lanes at once.
+// transpose and the Horner step in u on all four lanes at once. Below the horizon the lanes whose
+// subtracted term is negligible skip B R (part1, batch()).
 //
 // Highway is used without libhwy: no HWY_EXPORT / HWY_DYNAMIC_DISPATCH (they need libhwy's
 // hwy::GetChosenTarget and hwy::SupportedTargets). foreach_target.h compiles this file once per
