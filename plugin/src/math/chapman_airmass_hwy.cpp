@@ -258,6 +258,7 @@ HWY_INLINE void part1(const AirmassTable& table, V x, V mu, V s, Chunk& ch, size
 struct Partition {
     int32_t compress[16][8];
     int32_t expand[16][8];
+    uint64_t keep[16][4];  // all ones in the lanes of m
 };
 constexpr Partition make_partition() {
     Partition p{};
@@ -271,6 +272,7 @@ constexpr Partition make_partition() {
         for (int k = 0; k < 4; ++k) {
             const int c = (m >> k) & 1u;
             p.expand[m][2 * k] = 2 * r[c], p.expand[m][2 * k + 1] = 2 * r[c] + 1;
+            p.keep[m][k] = c ? ~uint64_t(0) : 0;
             ++r[c];
         }
     }
@@ -426,7 +428,8 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             const V h = hn::Mul(hn::Load(dd, ch.factor0 + 4 * j),
                                 read_column0(column0, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j)));
             const V product = hn::TableLookupLanes(hn::LoadU(dd, ch.product + n1), permutation(kPartition.expand[need]));
-            const V mantissa = hn::Sub(h, hn::IfThenElseZero(hn::LoadMaskBits(dd, &ch.need[j]), product));
+            const V keep = hn::BitCast(dd, hn::Load(hn::Full256<uint64_t>(), kPartition.keep[need]));
+            const V mantissa = hn::Sub(h, hn::And(product, keep));
             n1 += size_t(std::popcount(need));
             if (!kRescaled && j < full) {
                 store4(mantissa, out1 + i0 + 4 * j);
