@@ -426,6 +426,24 @@ TEST(Extremes, ChapmanAirmassHugeX) {
     EXPECT_TRUE(std::isfinite(s.log_scale) && s.log_scale > 0.0) << s.log_scale;
 }
 
+// A NaN x below the horizon (or a NaN cos chi) went through the careful path's table cell as
+// static_cast<int>(NaN), INT_MIN with GCC: a read ~16 GiB before the table, a crash (found by
+// comparing batch and scalar over random inputs). NaN in, NaN out, scalar and batch.
+TEST(Extremes, ChapmanAirmassNaNBelowTheHorizon) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const auto below = ZenithAngle<double>::from_degrees(120.0);
+    EXPECT_TRUE(std::isnan(chapman_scaled(ChapmanMethod::airmass, nan, below).mantissa));
+    EXPECT_TRUE(std::isnan(chapman_scaled(ChapmanMethod::airmass, 2.0, ZenithAngle<double>{nan, 0.5}).mantissa));
+    EXPECT_TRUE(std::isnan(chapman_scaled(ChapmanMethod::airmass, float(nan), ZenithAngle<float>::from_degrees(120.0f)).mantissa));
+    std::vector<double> x{2.0, nan, 3.0, 4.0, 5.0}, c(5, below.cos_chi), s(5, below.sin_chi), m(5), e(5);
+    chapman_scaled_batch<double>(ChapmanMethod::airmass, x, c, s, m, e);
+    for (size_t i = 0; i < x.size(); ++i) {
+        const auto one = chapman_scaled(ChapmanMethod::airmass, x[i], below);
+        if (i == 1) EXPECT_TRUE(std::isnan(m[i])) << m[i];
+        else EXPECT_NEAR(m[i], one.mantissa, 1e-12 * one.mantissa) << "x = " << x[i];
+    }
+}
+
 // fuzz_csv (`airmass chapman --method exact`, row `1e308,45`): the quadrature's (x mu / t)² overflowed,
 // giving Ch = 0 from x ≈ 1e200 and a NaN (Boost's evaluation_error, an uncaught exception in the
 // fuzz target) at 1e308. Over the horizon Ch tends to 1 / cos chi, and horizontally to

@@ -65,10 +65,13 @@ struct AirmassTable {
     int n_w;                     // nodes along w (cells: n_w − 1)
     int n_v;                     // nodes along v
 
+    // NaN (a NaN x or cos chi on the careful path) gives cell 0 and a NaN local coordinate, so a
+    // NaN result: converting NaN to int is undefined (GCC gives INT_MIN, a read far outside the
+    // table).
     template <class T>
     static int cell(T u, int n, T& local) {
         const T s = u * T(n - 1);
-        const int i = std::min(static_cast<int>(s), n - 2);
+        const int i = s >= T(0) ? static_cast<int>(std::min(s, T(n - 2))) : 0;
         local = s - T(i);
         return i;
     }

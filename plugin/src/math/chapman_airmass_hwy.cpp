@@ -3,7 +3,8 @@
 // and the scalar path (chapman_airmass.hpp, airmass_scaled_fast), four double lanes per AVX
 // register, with the square roots, the shared division, the cell indices and exp(−d) as vector
 // instructions, and the table read per lane (four 256-bit loads, three FMAs) followed by one 4×4
-// transpose and the Horner step in u on all four lanes at once.
+// transpose and the Horner step in u on all four lanes at once. Below the horizon the lanes whose
+// subtracted term is negligible skip B R (part1, batch()).
 //
 // Highway is used without libhwy: no HWY_EXPORT / HWY_DYNAMIC_DISPATCH (they need libhwy's
 // hwy::GetChosenTarget and hwy::SupportedTargets). foreach_target.h compiles this file once per
@@ -32,6 +33,7 @@
 #include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -77,24 +79,35 @@ HWY_INLINE V cell(V s, int n, V& local) {
     return i;
 }
 
-// A chunk of kBlocks blocks of four lanes goes through two passes: stage_a computes every block's
-// table cells and factors (square roots, the shared division, exp(−d)) into the chunk, stage_b
-// reads the table and forms the results. On one block the whole chain (sqrt → division → cell →
-// table read → Horner) is ~150 cycles of latency, longer than the reorder window of a Zen 1
-// core; in passes, every block of a pass is independent of the others, so their latencies
-// overlap and the table reads (random, mostly L1 misses) are in flight together.
+// A chunk of kBlocks blocks of four lanes goes through passes: stage_a computes every block's
+// table cells and factors (square root, the shared division) into the chunk, stage_b reads the
+// table and forms the results. On one block the whole chain (sqrt → division → cell → table read →
+// Horner) is ~150 cycles of latency, longer than a core's reorder window; in passes, every block
+// of a pass is independent of the others, so their latencies overlap and the table reads (random,
+// mostly L1 misses) are in flight together. Below the horizon, batch() below.
 constexpr size_t kBlocks = 16;
 
+// Arrays of a chunk have 4 more lanes: a compressed block is stored whole (4 lanes) at any
+// position, and its expansion reads four lanes from any position.
+constexpr size_t kLanes = kBlocks * 4 + 4;
+
 struct Chunk {
-    HWY_ALIGN double t[kBlocks * 4], u[kBlocks * 4], t0[kBlocks * 4];
-    HWY_ALIGN double factor[kBlocks * 4];     // the base B: mantissa = B R above the horizon
-    HWY_ALIGN double factor0[kBlocks * 4];    // 2 c0 below, 0 above (stage b: e^(−d) = −1 there)
-    // log_scale: d below, 0 above; stage b takes e^(−d) from it.
-    HWY_ALIGN double log_scale[kBlocks * 4];
-    HWY_ALIGN double mantissa[kBlocks * 4];
-    HWY_ALIGN int32_t off[kBlocks * 4], off0[kBlocks * 4];
-    uint8_t slow[kBlocks];   // lanes the fast path cannot take (bit k: lane k)
-    bool below[kBlocks];     // any lane below the horizon
+    // stage_a → stage_b: the cells' local coordinates and offsets, the base B, the slow lanes.
+    HWY_ALIGN double t[kLanes], u[kLanes], factor[kLanes];
+    HWY_ALIGN int32_t off[kLanes];
+    uint8_t slow[kBlocks];  // lanes the fast path cannot take (bit k: lane k)
+    // A chunk with lanes below the horizon (part1 and batch()): the tail block's inputs in double;
+    // per block in input order Ch∥(x0)'s cell (t0, off0), 2 c0, d (0 above), the lanes that need
+    // B R and the careful lanes (bit k: lane k); the lanes that need B R compressed (x, mu, and
+    // d below the horizon, −1 above), any of them below per compressed block, and their product
+    // B R e^(−d) (−B R above).
+    HWY_ALIGN double x[4], mu[4], s[4];
+    HWY_ALIGN double t0[kLanes], factor0[kLanes], log_scale[kLanes];
+    HWY_ALIGN int32_t off0[kLanes];
+    uint8_t need[kBlocks], careful[kBlocks];
+    HWY_ALIGN double qx[kLanes], qmu[kLanes], qd[kLanes], product[kLanes];
+    bool below[kBlocks];
+    HWY_ALIGN double mantissa[kLanes];  // results for finish(), in input order
 };
 
 // Element offsets (exact in double) → four int32 in memory.
@@ -151,83 +164,124 @@ HWY_INLINE V read_column0(const double* column0, const int32_t* o, V t) {
     return hn::MulAdd(hn::MulAdd(C3, t, C2), hn::Mul(t, t), hn::MulAdd(C1, t, C0));
 }
 
-// Stage a of block j: Ch's cells and factors for four lanes (formulas: chapman_airmass_batch.inc).
-HWY_INLINE void stage_a(const AirmassTable& table, V x, V mu, V s, Chunk& ch, size_t j) {
+// Stage a of block j: the cells and the base B of Ch(x, chi) for four lanes with m = |cos chi|
+// (formulas: chapman_airmass_batch.inc, above the horizon). kSlow: lanes may be beyond the fast
+// path (D > 1e300); without, x ≤ 1e150 in every lane (D ≤ ~1e226).
+template <bool kSlow>
+HWY_INLINE void stage_a(const AirmassTable& table, V x, V m, Chunk& ch, size_t j) {
     const DD dd;
     const size_t l = 4 * j;
-    const V one = hn::Set(dd, 1.0), zero = hn::Zero(dd);
-    const M below = hn::Lt(mu, zero);
-    const V m = hn::Abs(mu);
+    const V one = hn::Set(dd, 1.0);
     const V sx = hn::Sqrt(x);
     const V Y = hn::Mul(sx, hn::Set(dd, 0.70710678118654752));
     const V c = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx, one);
     const V a = hn::Add(one, sx), b = hn::MulAdd(m, Y, one), q = hn::MulAdd(hn::Sub(c, one), m, one);
     const V ab = hn::Mul(a, b);
     const V D = hn::Mul(ab, q);
-    const V bq = hn::Mul(b, q), v_num = hn::Mul(hn::Mul(m, hn::Add(one, Y)), hn::Mul(a, q));
+    const M slow = kSlow ? hn::Not(hn::Le(D, hn::Set(dd, 1e300))) : hn::FirstN(dd, 0);
+    const V inv_D = hn::Div(one, kSlow ? hn::IfThenElse(slow, one, D) : D);
+    V w = hn::Mul(hn::Mul(b, q), inv_D);
+    V v = hn::Min(hn::Mul(hn::Mul(hn::Mul(m, hn::Add(one, Y)), hn::Mul(a, q)), inv_D), one);
+    if constexpr (kSlow) w = hn::IfThenZeroElse(slow, w), v = hn::IfThenZeroElse(slow, v);
     const int n_w = table.n_w, n_v = table.n_v;
-    const V wscale = hn::Set(dd, double(n_w - 1)), vscale = hn::Set(dd, double(n_v - 1));
-    const V row = hn::Set(dd, double((n_v - 1) * 16)), sixteen = hn::Set(dd, 16.0);
-    const bool any_below = !hn::AllFalse(dd, below);
-    ch.below[j] = any_below;
-    V inv_D;
-    M slow;
-    V w, v;
-    if (!any_below) {
-        slow = hn::Not(hn::Le(D, hn::Set(dd, 1e300)));
-        inv_D = hn::Div(one, hn::IfThenElse(slow, one, D));
-        hn::Store(zero, dd, ch.log_scale + l);
-    } else {
-        const V sp = hn::Add(one, s);
-        const V sx0 = hn::Sqrt(hn::Mul(x, s));
-        const V a0 = hn::Add(one, sx0);
-        const V e = hn::Mul(a0, sp);
-        const V P = hn::Mul(D, e);
-        slow = hn::Not(hn::Le(P, hn::Set(dd, 1e300)));
-        const V inv = hn::Div(one, hn::IfThenElse(slow, one, P));
-        inv_D = hn::Mul(e, inv);
-        const V w0 = hn::IfThenZeroElse(slow, hn::Mul(hn::Mul(D, sp), inv));
-        V t0;
-        const V iw0 = cell(hn::Mul(w0, wscale), n_w, t0);
-        hn::Store(t0, dd, ch.t0 + l);
-        offsets(hn::Mul(iw0, hn::Set(dd, 4.0)), ch.off0 + l);
-        const V c0 = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx0, one);
-        const V d = hn::Mul(hn::Mul(hn::Mul(x, hn::Mul(m, m)), hn::Mul(D, a0)), inv);
-        hn::Store(hn::IfThenElseZero(below, hn::Add(c0, c0)), dd, ch.factor0 + l);
-        hn::Store(hn::IfThenElseZero(below, d), dd, ch.log_scale + l);
-    }
-    w = hn::IfThenZeroElse(slow, hn::Mul(bq, inv_D));
-    v = hn::IfThenZeroElse(slow, hn::Min(hn::Mul(v_num, inv_D), one));
     V t, u;
-    const V iw = cell(hn::Mul(w, wscale), n_w, t), iv = cell(hn::Mul(v, vscale), n_v, u);
+    const V iw = cell(hn::Mul(w, hn::Set(dd, double(n_w - 1))), n_w, t);
+    const V iv = cell(hn::Mul(v, hn::Set(dd, double(n_v - 1))), n_v, u);
     hn::Store(t, dd, ch.t + l);
     hn::Store(u, dd, ch.u + l);
-    offsets(hn::MulAdd(iw, row, hn::Mul(iv, sixteen)), ch.off + l);
+    offsets(hn::MulAdd(iw, hn::Set(dd, double((n_v - 1) * 16)), hn::Mul(iv, hn::Set(dd, 16.0))), ch.off + l);
     // The cells' two cache lines each, fetched while the rest of the chunk's stage a runs.
     for (size_t k = 0; k < 4; ++k) {
         hwy::Prefetch(table.coefficients + ch.off[l + k]);
         hwy::Prefetch(table.coefficients + ch.off[l + k] + 8);
     }
     hn::Store(hn::Mul(hn::Mul(c, ab), inv_D), dd, ch.factor + l);
-    uint8_t bits[8] = {};
-    hn::StoreMaskBits(dd, slow, bits);
-    ch.slow[j] = bits[0];
+    if constexpr (kSlow) {
+        uint8_t bits[8] = {};
+        hn::StoreMaskBits(dd, slow, bits);
+        ch.slow[j] = bits[0];
+    }
 }
 
-// Stage b of block j: the table reads and the mantissa.
-HWY_INLINE V stage_b(const AirmassTable& table, const double* column0, const Chunk& ch, size_t j) {
+// Stage b of block j: the table reads, B R.
+HWY_INLINE V stage_b(const AirmassTable& table, const Chunk& ch, size_t j) {
     const DD dd;
     const size_t l = 4 * j;
-    const double* coefficients = table.coefficients;
-    const V upper = hn::Mul(hn::Load(dd, ch.factor + l), read(coefficients, ch.off + l, ch.t + l, hn::Load(dd, ch.u + l)));
-    if (!ch.below[j]) return upper;
-    const V h = read_column0(column0, ch.off0 + l, hn::Load(dd, ch.t0 + l));
-    // 2 c0 Ch∥(x0) − B R e^(−d) below; above (2 c0 = 0, e^(−d) = −1) exactly B R. e^(−d) here
-    // rather than in stage a: it does not wait for the table read, and fills that latency (batch
-    // below the horizon 5.93 → 5.69 ns, bench_chapman, interleaved runs).
-    const V factor0 = hn::Load(dd, ch.factor0 + l);
-    const V exp_d = hn::IfThenElse(hn::Gt(factor0, hn::Zero(dd)), exp_neg(hn::Load(dd, ch.log_scale + l)), hn::Set(dd, -1.0));
-    return hn::NegMulAdd(upper, exp_d, hn::Mul(factor0, h));
+    return hn::Mul(hn::Load(dd, ch.factor + l), read(table.coefficients, ch.off + l, ch.t + l, hn::Load(dd, ch.u + l)));
+}
+
+// A chunk with lanes below the horizon goes in two parts. Below the horizon the mantissa is
+// 2 c0 Ch∥(x0) − B R e^(−d), and where d > 40 + √x the subtracted term is below 1e-17 of the
+// mantissa (B R ≤ 1.2 (1 + 1.26 √x), mantissa ≥ Ch∥(x0) ≥ 1): about half of bench_chapman's lanes
+// below the horizon. Part one, on every block in input order: x0's square root, a division of its
+// own, the cell of Ch∥(x0) and d; then the lanes that still need B R (above the horizon, or d not
+// large enough) are compressed, a block of four at a time, and part two evaluates B R (e^(−d)) on
+// those alone: their square root, division, table read and exp. The negligible lanes cost no √x,
+// no table read and no exp.
+//
+// Part one of block j: stores t0, off0, 2 c0 (0 above or careful) and d (0 above), returns the
+// lanes that need B R and sets the careful lanes' bits (x > 1e150, NaN: the careful scalar path).
+HWY_INLINE void part1(const AirmassTable& table, V x, V mu, V s, Chunk& ch, size_t j) {
+    const DD dd;
+    const size_t l = 4 * j;
+    const V one = hn::Set(dd, 1.0), zero = hn::Zero(dd);
+    const M below = hn::Lt(mu, zero);
+    const M careful = hn::Or(hn::Not(hn::And(hn::Le(x, hn::Set(dd, 1e150)), hn::Le(hn::Abs(mu), one))),
+                             hn::AndNot(hn::Ge(s, zero), below));
+    const M fast_below = hn::AndNot(careful, below);
+    const V sp = hn::Add(one, s);
+    const V sx0 = hn::Sqrt(hn::Mul(x, s));
+    const V a0 = hn::Add(one, sx0);
+    const V inv = hn::Div(one, hn::Mul(a0, sp));
+    V t0;
+    const V iw0 = cell(hn::IfThenElseZero(fast_below, hn::Mul(hn::Mul(sp, inv), hn::Set(dd, double(table.n_w - 1)))),
+                       table.n_w, t0);
+    hn::Store(t0, dd, ch.t0 + l);
+    offsets(hn::Mul(iw0, hn::Set(dd, 4.0)), ch.off0 + l);
+    const V c0 = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx0, one);
+    hn::Store(hn::IfThenElseZero(fast_below, hn::Add(c0, c0)), dd, ch.factor0 + l);
+    const V d = hn::Mul(hn::Mul(hn::Mul(x, hn::Mul(mu, mu)), a0), inv);
+    hn::Store(hn::IfThenElseZero(fast_below, d), dd, ch.log_scale + l);
+    const V e = hn::Sub(d, hn::Set(dd, 40.0));  // negligible: d − 40 > √x
+    const M negligible = hn::And(below, hn::And(hn::Gt(e, zero), hn::Gt(hn::Mul(e, e), x)));
+    uint8_t bits[8] = {};
+    hn::StoreMaskBits(dd, careful, bits);
+    ch.careful[j] = bits[0];
+    hn::StoreMaskBits(dd, hn::Not(hn::Or(careful, negligible)), bits);
+    ch.need[j] = bits[0];
+}
+
+// The partition's permutations of a block of four by its negligible lanes' bits m, as pairs of
+// 32-bit indices (vpermd: AVX2 has no 64-bit variable permutation): compress[m] takes the lanes in m
+// to the front in order; expand[m] sends lane k the r-th lane of its class, r = the lanes of k's
+// class below k.
+struct Partition {
+    int32_t compress[16][8];
+    int32_t expand[16][8];
+    uint64_t keep[16][4];  // all ones in the lanes of m
+};
+constexpr Partition make_partition() {
+    Partition p{};
+    for (unsigned m = 0; m < 16; ++m) {
+        int n = 0;
+        for (int k = 0; k < 4; ++k)
+            if (m & (1u << k)) p.compress[m][2 * n] = 2 * k, p.compress[m][2 * n + 1] = 2 * k + 1, ++n;
+        for (int k = 0; k < 4; ++k)
+            if (!(m & (1u << k))) p.compress[m][2 * n] = 2 * k, p.compress[m][2 * n + 1] = 2 * k + 1, ++n;
+        int r[2] = {0, 0};
+        for (int k = 0; k < 4; ++k) {
+            const int c = (m >> k) & 1u;
+            p.expand[m][2 * k] = 2 * r[c], p.expand[m][2 * k + 1] = 2 * r[c] + 1;
+            p.keep[m][k] = c ? ~uint64_t(0) : 0;
+            ++r[c];
+        }
+    }
+    return p;
+}
+HWY_ALIGN constexpr Partition kPartition = make_partition();
+
+HWY_INLINE hn::Indices256<double> permutation(const int32_t* idx) {
+    return hn::Indices256<double>{hn::Load(hn::Full256<int32_t>(), idx).raw};
 }
 
 // Loads four T as doubles.
@@ -276,9 +330,22 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
     for (size_t i0 = 0; i0 < n; i0 += kBlocks * 4) {
         const size_t count = n - i0 < kBlocks * 4 ? n - i0 : kBlocks * 4;
         const size_t full = count / 4, blocks = (count + 3) / 4;
-        for (size_t j = 0; j < full; ++j) {
+        // The tail's last 1–3 lanes in double, padded with the zenith at x = 1.
+        if (full < blocks)
+            for (size_t k = 0; k < 4; ++k) {
+                const size_t i = i0 + 4 * full + k;
+                const bool in = 4 * full + k < count;
+                ch.x[k] = in ? double(x_of(i)) : 1.0;
+                ch.mu[k] = in ? double(cs[i]) : 1.0;
+                ch.s[k] = in ? double(ss[i]) : 0.0;
+            }
+        // Block j's inputs in double.
+        const auto load = [&](size_t j, V& x, V& mu, V& s) {
+            if (j == full) {
+                x = hn::Load(dd, ch.x), mu = hn::Load(dd, ch.mu), s = hn::Load(dd, ch.s);
+                return;
+            }
             const size_t i = i0 + 4 * j;
-            V x;
             if constexpr (!kRescaled) {
                 x = load4(xh + i);
             } else if constexpr (sizeof(T) == sizeof(double)) {
@@ -287,42 +354,98 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
                 const hn::Rebind<float, DD> df;
                 x = hn::PromoteTo(dd, hn::Add(hn::Set(df, X), hn::LoadU(df, xh + i)));
             }
-            stage_a(table, x, load4(cs + i), load4(ss + i), ch, j);
-        }
-        if (full < blocks) {  // the last 1–3 lanes, padded with the zenith at x = 1
-            HWY_ALIGN double x[4] = {1, 1, 1, 1}, mu[4] = {1, 1, 1, 1}, s[4] = {0, 0, 0, 0};
-            for (size_t k = 0; 4 * full + k < count; ++k) {
-                const size_t i = i0 + 4 * full + k;
-                x[k] = double(x_of(i));
-                mu[k] = double(cs[i]);
-                s[k] = double(ss[i]);
-            }
-            stage_a(table, hn::Load(dd, x), hn::Load(dd, mu), hn::Load(dd, s), ch, full);
-        }
+            mu = load4(cs + i), s = load4(ss + i);
+        };
+        // Any lane below the horizon (sign bits; NaN goes with its sign, as in stage_a).
+        V any_mu = hn::Zero(dd);
         for (size_t j = 0; j < blocks; ++j) {
-            const V mantissa = stage_b(table, column0, ch, j);
-            const size_t i = i0 + 4 * j;
-            if (!kRescaled && j < full && ch.slow[j] == 0) {
-                store4(mantissa, out1 + i);
-                store4(hn::Load(dd, ch.log_scale + 4 * j), out2 + i);
-            } else {
-                hn::Store(mantissa, dd, ch.mantissa + 4 * j);
-            }
+            V x, mu, s;
+            load(j, x, mu, s);
+            any_mu = hn::Or(any_mu, mu);
         }
-        for (size_t j = 0; j < blocks; ++j) {
-            if (!kRescaled && j < full && ch.slow[j] == 0) continue;  // stored above
-            for (size_t k = 0; k < 4 && 4 * j + k < count; ++k) {
-                const size_t i = i0 + 4 * j + k;
-                if (ch.slow[j] & (1u << k)) continue;
-                finish(i, ScaledChapman<T>{static_cast<T>(ch.mantissa[4 * j + k]), static_cast<T>(ch.log_scale[4 * j + k])});
+        if (hn::AllFalse(dd, hn::Lt(any_mu, hn::Zero(dd)))) {  // all above: B R, log scale 0
+            for (size_t j = 0; j < blocks; ++j) {
+                V x, mu, s;
+                load(j, x, mu, s);
+                stage_a<true>(table, x, hn::Abs(mu), ch, j);
             }
-        }
-        for (size_t j = 0; j < blocks; ++j)
-            if (ch.slow[j])
+            for (size_t j = 0; j < blocks; ++j) {
+                const V mantissa = stage_b(table, ch, j);
+                const size_t i = i0 + 4 * j;
+                if (!kRescaled && j < full && ch.slow[j] == 0) {
+                    store4(mantissa, out1 + i);
+                    store4(hn::Zero(dd), out2 + i);
+                } else {
+                    hn::Store(mantissa, dd, ch.mantissa + 4 * j);
+                }
+            }
+            for (size_t j = 0; j < blocks; ++j) {
+                if (!kRescaled && j < full && ch.slow[j] == 0) continue;  // stored above
                 for (size_t k = 0; k < 4 && 4 * j + k < count; ++k) {
                     const size_t i = i0 + 4 * j + k;
                     if (ch.slow[j] & (1u << k)) finish(i, table.scaled(x_of(i), cs[i], ss[i]));
+                    else finish(i, ScaledChapman<T>{static_cast<T>(ch.mantissa[4 * j + k]), T(0)});
                 }
+            }
+            continue;
+        }
+        // Part one on every block, the lanes that need B R compressed (part1 above).
+        size_t n1 = 0;
+        for (size_t j = 0; j < blocks; ++j) {
+            V x, mu, s;
+            load(j, x, mu, s);
+            part1(table, x, mu, s, ch, j);
+        }
+        for (size_t j = 0; j < blocks; ++j) {
+            V x, mu, s;
+            load(j, x, mu, s);
+            const V dq = hn::IfThenElse(hn::Lt(mu, hn::Zero(dd)), hn::Load(dd, ch.log_scale + 4 * j), hn::Set(dd, -1.0));
+            const unsigned need = ch.need[j];
+            const auto to = permutation(kPartition.compress[need]);
+            hn::StoreU(hn::TableLookupLanes(x, to), dd, ch.qx + n1);
+            hn::StoreU(hn::TableLookupLanes(mu, to), dd, ch.qmu + n1);
+            hn::StoreU(hn::TableLookupLanes(dq, to), dd, ch.qd + n1);
+            n1 += size_t(std::popcount(need));
+        }
+        for (size_t q = n1; q % 4; ++q) ch.qx[q] = 1.0, ch.qmu[q] = 1.0, ch.qd[q] = -1.0;  // the zenith at x = 1
+        const size_t g1 = (n1 + 3) / 4;
+        // Part two: B R e^(−d) below, −B R above (d = −1 there), on the compressed blocks. e^(−d) in
+        // the pass of the table reads: it does not wait for them, and fills their latency.
+        for (size_t j = 0; j < g1; ++j) {
+            stage_a<false>(table, hn::Load(dd, ch.qx + 4 * j), hn::Abs(hn::Load(dd, ch.qmu + 4 * j)), ch, j);
+            ch.below[j] = !hn::AllTrue(dd, hn::Lt(hn::Load(dd, ch.qd + 4 * j), hn::Zero(dd)));
+        }
+        for (size_t j = 0; j < g1; ++j) {
+            const V upper = stage_b(table, ch, j);
+            const V d = hn::Load(dd, ch.qd + 4 * j);
+            const V e = ch.below[j] ? hn::IfThenElse(hn::Lt(d, hn::Zero(dd)), hn::Set(dd, -1.0), exp_neg(d)) : hn::Set(dd, -1.0);
+            hn::Store(hn::Mul(upper, e), dd, ch.product + 4 * j);
+        }
+        // 2 c0 Ch∥(x0) minus the expanded products, in input order.
+        n1 = 0;
+        for (size_t j = 0; j < blocks; ++j) {
+            const unsigned need = ch.need[j];
+            const V h = hn::Mul(hn::Load(dd, ch.factor0 + 4 * j),
+                                read_column0(column0, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j)));
+            const V product = hn::TableLookupLanes(hn::LoadU(dd, ch.product + n1), permutation(kPartition.expand[need]));
+            const V keep = hn::BitCast(dd, hn::Load(hn::Full256<uint64_t>(), kPartition.keep[need]));
+            const V mantissa = hn::Sub(h, hn::And(product, keep));
+            n1 += size_t(std::popcount(need));
+            if (!kRescaled && j < full) {
+                store4(mantissa, out1 + i0 + 4 * j);
+                store4(hn::Load(dd, ch.log_scale + 4 * j), out2 + i0 + 4 * j);
+            } else {
+                hn::Store(mantissa, dd, ch.mantissa + 4 * j);
+                for (size_t k = 0; k < 4 && 4 * j + k < count; ++k)
+                    finish(i0 + 4 * j + k, ScaledChapman<T>{static_cast<T>(ch.mantissa[4 * j + k]), static_cast<T>(ch.log_scale[4 * j + k])});
+            }
+            if (ch.careful[j])  // over what was stored for them
+                for (size_t k = 0; k < 4 && 4 * j + k < count; ++k)
+                    if (ch.careful[j] & (1u << k)) {
+                        const size_t i = i0 + 4 * j + k;
+                        finish(i, table.scaled(x_of(i), cs[i], ss[i]));
+                    }
+        }
     }
 }
 
