@@ -444,6 +444,37 @@ TEST(Extremes, ChapmanAirmassNaNBelowTheHorizon) {
     }
 }
 
+// A NaN or infinite cos χ in one lane of the batch's 64-lane chunk must not change the others
+// (the chunk's "all above the horizon" test once ORed the lanes' bits: NaN | −0.5 is NaN, not
+// negative, and a lane below the horizon got Ch(x, 180° − χ)); negative x is NaN, not a read
+// outside the table (scalar fast path).
+TEST(Extremes, ChapmanAirmassBatchOddLanesDoNotLeak) {
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    for (const double odd : {nan, inf, -inf, 1.5, -2.0}) {
+        const std::size_t n = 131;  // two full chunks and a tail of three lanes
+        std::vector<double> x(n), c(n), s(n), m(n), e(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto chi = ZenithAngle<double>::from_degrees(i % 3 == 0 ? 120.0 : i % 3 == 1 ? 95.0 : 60.0);
+            x[i] = 1.0 + double(i % 17) * 40.0;
+            c[i] = chi.cos_chi, s[i] = chi.sin_chi;
+        }
+        // One odd lane in every position of a block (mod 4), so the bits of every position ORed over
+        // the chunk are NaN, in both chunks.
+        for (const std::size_t i : {0, 1, 2, 3, 64, 65, 66, 67}) c[i] = odd;
+        chapman_scaled_batch<double>(ChapmanMethod::airmass, x, c, s, m, e);
+        for (std::size_t i = 0; i < n; ++i) {
+            if (i < 4 || (i >= 64 && i < 68)) continue;
+            const auto one = chapman_scaled(ChapmanMethod::airmass, x[i], ZenithAngle<double>{c[i], s[i]});
+            EXPECT_NEAR(m[i] * std::exp(-e[i] + one.log_scale), one.mantissa, 1e-11 * one.mantissa)
+                << "lane " << i << " beside cos chi = " << odd;
+        }
+    }
+    for (const double chi : {60.0, 120.0})
+        for (const double x : {-1.0, -std::numeric_limits<double>::infinity()})
+            EXPECT_TRUE(std::isnan(chapman_scaled(ChapmanMethod::airmass, x, ZenithAngle<double>::from_degrees(chi)).mantissa))
+                << "x = " << x << ", chi = " << chi;
+}
+
 // fuzz_csv (`airmass chapman --method exact`, row `1e308,45`): the quadrature's (x mu / t)² overflowed,
 // giving Ch = 0 from x ≈ 1e200 and a NaN (Boost's evaluation_error, an uncaught exception in the
 // fuzz target) at 1e308. Over the horizon Ch tends to 1 / cos chi, and horizontally to

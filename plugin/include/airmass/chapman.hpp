@@ -91,12 +91,13 @@ template <class T>
 T chapman_rescaled(ChapmanMethod method, T X, T h, ZenithAngle<T> chi);
 
 // Batch form over arrays (same length), scaled output. Loops are branch-light so the
-// compiler can vectorise the fast methods.
+// compiler can vectorise the fast methods. The outputs must not share memory with the inputs
+// (the airmass kernel rereads inputs of careful lanes after it has stored whole blocks).
 template <class T>
 void chapman_scaled_batch(ChapmanMethod method, std::span<const T> x, std::span<const T> cos_chi,
                           std::span<const T> sin_chi, std::span<T> mantissa, std::span<T> log_scale);
 
-// Batch of chapman_rescaled.
+// Batch of chapman_rescaled (the same: `out` must not share memory with the inputs).
 template <class T>
 void chapman_rescaled_batch(ChapmanMethod method, T X, std::span<const T> h, std::span<const T> cos_chi,
                             std::span<const T> sin_chi, std::span<T> out);

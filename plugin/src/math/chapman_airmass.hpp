@@ -223,7 +223,8 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
         const double a = 1.0 + sx, b = 1.0 + mu * Y, q = (c - 1.0) * mu + 1.0;
         // Three independent divisions: on one lane their latencies overlap, which is shorter
         // than the batch's shared division (three multiplications before and after it).
-        if (!(x <= 1e300)) return table.scaled(x_in, mu_in, s_in);
+        // Negative, huge or NaN x: the careful path (a NaN index would read outside the table).
+        if (!(x >= 0.0 && x <= 1e300)) return table.scaled(x_in, mu_in, s_in);
         const double w = 1.0 / a;
         const double v_raw = mu * (1.0 + Y) / b;
         const double v = v_raw < 1.0 ? v_raw : 1.0;
@@ -237,8 +238,8 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
     }
     // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (five).
     const double s = s_in;
-    // Beyond x ~ 1e150 (and for NaN) the careful path, as the batch kernels do.
-    if (!(x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
+    // Beyond x ~ 1e150 (and for negative or NaN x) the careful path, as the batch kernels do.
+    if (!(x >= 0.0 && x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
     const double m = -mu;
     const double sx = std::sqrt(x), sx0 = std::sqrt(x * s);
     const double Y = sx * 0.70710678118654752;

@@ -33,9 +33,11 @@
 #include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstddef>
+#include <iterator>
 #include <cstdint>
 
 #include "math/chapman_airmass.hpp"
@@ -327,6 +329,9 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
     };
     const double* column0 = detail::airmass_column0();
     Chunk ch;
+    // The expansion below reads whole blocks of products, some lanes of which no part two wrote
+    // (they are masked off): defined values for them, once per call.
+    std::fill(std::begin(ch.product), std::end(ch.product), 0.0);
     for (size_t i0 = 0; i0 < n; i0 += kBlocks * 4) {
         const size_t count = n - i0 < kBlocks * 4 ? n - i0 : kBlocks * 4;
         const size_t full = count / 4, blocks = (count + 3) / 4;
@@ -356,14 +361,16 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             }
             mu = load4(cs + i), s = load4(ss + i);
         };
-        // Any lane below the horizon (sign bits; NaN goes with its sign, as in stage_a).
-        V any_mu = hn::Zero(dd);
+        // Any lane below the horizon, as a mask per block (not the OR of the inputs' bits: a NaN or
+        // an infinite cos χ in one lane would hide a negative one in another). A NaN lane counts
+        // as above; stage_a sends it to the careful path.
+        auto any_below = hn::Lt(hn::Zero(dd), hn::Zero(dd));  // no lane
         for (size_t j = 0; j < blocks; ++j) {
             V x, mu, s;
             load(j, x, mu, s);
-            any_mu = hn::Or(any_mu, mu);
+            any_below = hn::Or(any_below, hn::Lt(mu, hn::Zero(dd)));
         }
-        if (hn::AllFalse(dd, hn::Lt(any_mu, hn::Zero(dd)))) {  // all above: B R, log scale 0
+        if (hn::AllFalse(dd, any_below)) {  // all above: B R, log scale 0
             for (size_t j = 0; j < blocks; ++j) {
                 V x, mu, s;
                 load(j, x, mu, s);
