@@ -53,7 +53,6 @@ bool contains(const std::vector<std::string>& v, std::string_view s) {
     return std::find(v.begin(), v.end(), s) != v.end();
 }
 
-
 [[noreturn]] void bad_plan(const std::string& where, const std::string& what) {
     throw std::logic_error("compare/plan.json: " + where + ": " + what);
 }
@@ -126,19 +125,18 @@ detail::PlanData detail::parse_plan(std::string_view document) {
         d.paths.push_back(std::move(info));
     }
     if (d.paths.empty()) bad_plan("paths", "empty");
+    const auto is_native = [](const std::string& n) {
+        return std::find(kNativeOrder.begin(), kNativeOrder.end(), n) != kNativeOrder.end();
+    };
     std::set<int> flags;
     for (const PathInfo& p : d.paths) {
         if ((p.renderer == Renderer::blender) != (p.addon_flag != 0))
             bad_plan(p.name, "\"addon_flag\" must be set for a blender path and null for any other");
         if (p.addon_flag != 0 && !flags.insert(p.addon_flag).second)
             bad_plan(p.name, "\"addon_flag\" " + std::to_string(p.addon_flag) + " is given twice");
-    }
-    for (const PathInfo& p : d.paths) {
-        const bool known = std::find(kNativeOrder.begin(), kNativeOrder.end(), p.reference) != kNativeOrder.end();
-        if (!known) bad_plan(p.name, "reference " + p.reference + " is not a native render");
+        if (!is_native(p.reference)) bad_plan(p.name, "reference " + p.reference + " is not a native render");
         for (const auto& n : p.natives)
-            if (std::find(kNativeOrder.begin(), kNativeOrder.end(), n) == kNativeOrder.end())
-                bad_plan(p.name, "natives: " + n + " is not a native render");
+            if (!is_native(n)) bad_plan(p.name, "natives: " + n + " is not a native render");
     }
     return d;
 }
