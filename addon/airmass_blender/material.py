@@ -21,11 +21,18 @@ What differs between callers is a parameter, never a copy:
   * stand_ins: the comparison's split renders also need, per scatterer, a Volume Absorption
     that can take its scattering as extinction only ("<name> stand-in", zero until set).
 
+  * lighting: "SCATTER" (Volume Scatter closures: Cycles samples the sun through the volume)
+    or "SUN_EMISSION" (sun_emission below: the single-scattered sunlight evaluated in the
+    shader as an emission, with the sun's columns from the library's table; the scatterers
+    then only attenuate, as Volume Absorption "<name> extinction").
+
 Node names the comparison (and the tests) address: "<name> scatter", "<name> scatter
 density" (the MULTIPLY ρ × D feeding its Density), "<name> absorption", "<name> absorption
 density", "<name> stand-in", "<name> stand-in density", "<name> scatter weight", "<name>
 scatter colour", "scatter (dithered)".
 """
+
+import math
 
 import bpy
 
@@ -227,6 +234,148 @@ def dithered_scatter(nb, scatterers):
     return node
 
 
+# ---- Analytic Sun lighting: single scattering as an emission ---------------------------------
+
+class SunLighting:
+    """What sun_emission needs: the sun and the table of its columns (native.sun_column_table,
+    docs/addon.md "Analytic Sun"), all in Blender units of the scene frame.
+
+    direction: unit vector toward the sun; irradiance_rgb: top-of-atmosphere sunlight, linear
+    Rec.709 (W m⁻², the Sun lamp's strength × colour); angular_radius: of the sun disc (rad);
+    images: float images holding the columns, three constituents per image (R, G, B), texel
+    (i, j) at x_mu = i/(width − 1), x_r = j/(height − 1); channel: {constituent name: (image
+    index, channel index)}; center, radius, top: planet centre, radius, radius of the top."""
+
+    def __init__(self, direction, irradiance_rgb, angular_radius, images, channel, center, radius, top):
+        self.direction = tuple(float(x) for x in direction)
+        self.irradiance_rgb = tuple(float(x) for x in irradiance_rgb)
+        self.angular_radius = float(angular_radius)
+        self.images = list(images)
+        self.channel = dict(channel)
+        self.center = tuple(float(x) for x in center)
+        self.radius, self.top = float(radius), float(top)
+
+
+def phase_socket(nb, kind, g, cos_theta):
+    """The library's phase function (phase.hpp) of `kind` at the scattering angle's cosine, per
+    steradian: A (B + C cos²) d^(−3/2), d = 1 + g² − 2 g cos (d = 1 for g = 0)."""
+    pi = math.pi
+    g = float(g)
+    if kind == "isotropic":
+        return 1.0 / (4.0 * pi)
+    if kind == "rayleigh":
+        a, b, c, uses_d = 3.0 / (16.0 * pi), 1.0, 1.0, False
+    elif kind == "rayleigh_modified":
+        a, b, c, uses_d = 30.0 / 47.0 / (4.0 * pi), 1.4, 0.5, False
+    elif kind == "cornette_shanks":
+        a, b, c, uses_d = 3.0 / (8.0 * pi) * (1.0 - g * g) / (2.0 + g * g), 1.0, 1.0, True
+    elif kind == "henyey_greenstein":
+        a, b, c, uses_d = (1.0 - g * g) / (4.0 * pi), 1.0, 0.0, True
+    else:
+        raise MaterialError("unknown phase function '%s' from the library" % kind)
+    value = a * b if c == 0.0 else nb.math("MULTIPLY_ADD", nb.math("MULTIPLY", cos_theta, cos_theta), a * c, a * b)
+    if uses_d and g != 0.0:
+        d = nb.math("MULTIPLY_ADD", cos_theta, -2.0 * g, 1.0 + g * g)
+        value = nb.math("MULTIPLY", value, nb.math("POWER", d, -1.5))
+    return value
+
+
+def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
+    """An Emission closure of single-scattered sunlight: at the shading point p, toward the
+    ray's origin (Geometry "Incoming": correct for every ray, camera or bounce),
+
+        L_e = f · E_top ⊙ exp(−Σ_k σt_k m_k(r, μ)) ⊙ Σ_j σs_j ρ_j(p) P_j(−s·I)
+
+    — the integrand of the library's single scattering (single_scattering.hpp), which Cycles
+    then integrates along the ray with the volume's extinction. m_k: constituent k's column
+    toward the sun from the table (bilinear), r = |p − c|, μ = the sun's zenith cosine there;
+    f: the fraction of the sun's disc above the planet's horizon, linear in the sun's
+    elevation above the horizon, (rμ + ρ)/R, across the disc's diameter (ρ = sqrt(r² − R²)).
+
+    `scatterers`: [(constituent dict, σs rgb, density socket or float)]; `extinctions`: [(name,
+    σs + σa rgb)] of every constituent; `irradiance_ws`: the sun's top-of-atmosphere RGB; all in
+    the working space."""
+    R, top = sun.radius, sun.top
+    H = math.sqrt(max(0.0, top * top - R * R))
+    c = sun.center
+    s_dir = sun.direction
+    position = nb.node("ShaderNodeNewGeometry", name="sun position", label="sun position")
+    P = position.outputs["Position"]
+    # q = r² − R² = p·p − 2 p·c + (c·c − R²) (no large radii subtracted); r μ = p·s − c·s.
+    pp = nb.dot(P, P)
+    q = nb.math("MULTIPLY_ADD", nb.dot(P, c), -2.0, pp) if any(c) else pp
+    cc_r2 = sum(x * x for x in c) - R * R
+    if cc_r2 != 0.0:
+        q = nb.math("ADD", q, cc_r2)
+    q = nb.math("MAXIMUM", q, 0.0)
+    r = nb.math("SQRT", nb.math("ADD", q, R * R))
+    rho = nb.math("SQRT", q)
+    sun_vec = nb.node("ShaderNodeCombineXYZ", name="sun direction", label="sun direction")
+    for i in range(3):
+        sun_vec.inputs[i].default_value = s_dir[i]
+    s_sock = sun_vec.outputs[0]
+    r_mu = nb.math("SUBTRACT", nb.dot(P, s_sock), sum(c[i] * s_dir[i] for i in range(3)), name="sun r mu")
+    # Bruneton's transmittance parametrisation (volume.hpp sun_column_table).
+    disc = nb.math("ADD", nb.math("MULTIPLY", r_mu, r_mu), nb.math("SUBTRACT", H * H, q))
+    d = nb.math("SUBTRACT", nb.math("SQRT", disc), r_mu)
+    d_min = nb.math("SUBTRACT", top, r)
+    d_max = nb.math("ADD", rho, H)
+    x_mu = nb.math("DIVIDE", nb.math("SUBTRACT", d, d_min), nb.math("SUBTRACT", d_max, d_min))
+    x_r = nb.math("DIVIDE", rho, H)
+    columns = {}
+    for index, image in enumerate(sun.images):
+        w, h = image.size
+        uv = nb.node("ShaderNodeCombineXYZ")
+        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_mu, (w - 1.0) / w, 0.5 / w), uv.inputs[0])
+        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_r, (h - 1.0) / h, 0.5 / h), uv.inputs[1])
+        tex = nb.node("ShaderNodeTexImage", name="sun columns %d" % index, label="sun columns %d" % index,
+                      interpolation="Linear", extension="EXTEND")
+        tex.image = image
+        nb.tree.links.new(uv.outputs[0], tex.inputs["Vector"])
+        sep = nb.node("ShaderNodeSeparateXYZ")
+        nb.tree.links.new(tex.outputs["Color"], sep.inputs[0])
+        for name, (img, ch) in sun.channel.items():
+            if img == index:
+                columns[name] = sep.outputs[ch]
+    # −τ per channel, then T; the sun's irradiance and the disc fraction folded in.
+    minus_tau = [0.0, 0.0, 0.0]
+    for name, ext in extinctions:
+        if name not in columns:
+            raise MaterialError("constituent '%s' has no column in the sun's table" % name)
+        for ch in range(3):
+            if ext[ch] > 0.0:
+                minus_tau[ch] = nb.math("MULTIPLY_ADD", columns[name], -float(ext[ch]), minus_tau[ch])
+    if sun.angular_radius > 0.0:
+        lit = nb.math("MULTIPLY_ADD", nb.math("ADD", r_mu, rho), 1.0 / (2.0 * sun.angular_radius * R), 0.5)
+        lit.node.use_clamp = True
+    else:
+        lit = nb.math("GREATER_THAN", nb.math("ADD", r_mu, rho), 0.0)
+    lit.node.name = lit.node.label = "sun disc above the horizon"
+    # cos θ = −s · I (I: from the point toward the ray's origin).
+    cos_theta = nb.math("MULTIPLY", nb.dot(s_sock, position.outputs["Incoming"]), -1.0, name="cos theta")
+    source = [0.0, 0.0, 0.0]
+    for cdesc, sigma_s, density in scatterers:
+        phase = phase_socket(nb, cdesc.get("phase", "isotropic"), float(cdesc.get("g", 0.0)), cos_theta)
+        weight = nb.math("MULTIPLY", density, phase, name="%s sun source" % cdesc["name"])
+        for ch in range(3):
+            if sigma_s[ch] > 0.0:
+                source[ch] = nb.math("MULTIPLY_ADD", weight, float(sigma_s[ch]), source[ch])
+    rgb = nb.node("ShaderNodeCombineXYZ", name="sun emission colour", label="sun emission colour")
+    for ch in range(3):
+        e = float(irradiance_ws[ch])
+        term = nb.math("MULTIPLY", nb.math("EXPONENT", minus_tau[ch]) if not isinstance(minus_tau[ch], float)
+                       else math.exp(minus_tau[ch]), lit)
+        term = nb.math("MULTIPLY", term, source[ch]) if not isinstance(source[ch], float) else 0.0
+        if isinstance(term, float):
+            rgb.inputs[ch].default_value = 0.0
+        else:
+            nb.tree.links.new(nb.math("MULTIPLY", term, e, name="sun irradiance %d" % ch), rgb.inputs[ch])
+    emission = nb.node("ShaderNodeEmission", name="sun emission", label="sun emission")
+    nb.tree.links.new(rgb.outputs[0], emission.inputs["Color"])
+    emission.inputs["Strength"].default_value = 1.0
+    return emission
+
+
 def _density_times(nb, density, k, name):
     """ρ × k as a named MULTIPLY (the comparison re-sets k per render), or a constant."""
     if isinstance(density, float):
@@ -234,7 +383,7 @@ def _density_times(nb, density, k, name):
     return nb.math("MULTIPLY", density, k, name=name)
 
 
-def build_material(name, constituents, density_for, phase_mixing="DITHER", stand_ins=False):
+def build_material(name, constituents, density_for, phase_mixing="DITHER", stand_ins=False, sun=None):
     """A volume material from constituent descriptions (name, scattering_rgb, absorption_rgb,
     phase, g, g_hg) and `density_for(nb, name)` → a socket (or float) of the relative density
     (analytic_density or grid_density).
@@ -246,7 +395,10 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
     converted to the file's working colour space (compat; identity before 5.0); the node
     properties airmass_sigma_s / airmass_sigma_a keep the library's own numbers.
     stand_ins: per scatterer also a Volume Absorption "<name> stand-in" of σa 0 (dropped by
-    Cycles until the comparison sets it)."""
+    Cycles until the comparison sets it).
+    sun: a SunLighting for the Analytic Sun lighting (sun_emission): each scatterer becomes a
+    Volume Absorption of its σs ("<name> extinction") and one Emission ("sun emission") carries
+    the single-scattered sunlight; None: Volume Scatter (Cycles samples the sun lamp)."""
     if phase_mixing not in ("DITHER", "SEPARATE"):
         raise MaterialError("phase_mixing must be DITHER or SEPARATE, not %r" % (phase_mixing,))
     mat = bpy.data.materials.new(name)
@@ -263,6 +415,7 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
         dither = phase_mixing == "DITHER" and compat.needs_phase_dither(
             [("henyey_greenstein", constituent_hg_g(c)) for c in scatterers])
         dithered = []
+        emitters, extinctions = [], []
         for c in constituents:
             sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
             sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
@@ -274,7 +427,17 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
             n = c["name"]
             density = density_for(nb, n)
             phase = c.get("phase", "isotropic")
-            if max(ws_s) > 0.0 and dither:
+            extinctions.append((n, [a + b for a, b in zip(ws_s, ws_a)]))
+            if max(ws_s) > 0.0 and sun is not None:
+                ds = max(ws_s)
+                node = nb.node("ShaderNodeVolumeAbsorption", name="%s extinction" % n, label="%s extinction" % n)
+                node.inputs["Color"].default_value = (1.0 - ws_s[0] / ds, 1.0 - ws_s[1] / ds, 1.0 - ws_s[2] / ds,
+                                                      1.0)
+                nb._feed(node.inputs["Density"], _density_times(nb, density, ds, "%s extinction density" % n))
+                node["airmass_sigma_s"] = sigma_s
+                shaders.append(node.outputs[0])
+                emitters.append((c, ws_s, density))
+            elif max(ws_s) > 0.0 and dither:
                 dithered.append((n, ws_s, constituent_hg_g(c), density))
             elif max(ws_s) > 0.0:
                 ds = max(ws_s)
@@ -300,6 +463,9 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
                 shaders.append(node.outputs[0])
         if dithered:
             shaders.append(dithered_scatter(nb, dithered).outputs[0])
+        if emitters:
+            irradiance = [max(0.0, x) for x in compat.convert_rgb(sun.irradiance_rgb, matrix)]
+            shaders.append(sun_emission(nb, emitters, extinctions, sun, irradiance).outputs[0])
         if not shaders:
             raise MaterialError("the scene has no constituent that scatters or absorbs light")
         total = shaders[0]

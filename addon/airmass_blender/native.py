@@ -4,7 +4,7 @@ Pure Python, no bpy: usable from Blender (any bundled Python 3.10–3.13) and fr
 plain Python tests. The library is looked up next to this file (the add-on zip bundles
 it: libairmass_c.so on Linux, airmass_c.dll on Windows) unless the environment variable
 AIRMASS_C_LIBRARY names another file. The library has no shared dependencies beyond the
-C/C++ runtime (C ABI 6: it writes no files, the host stores what it returns; every struct's
+C/C++ runtime (C ABI 7: it writes no files, the host stores what it returns; every struct's
 struct_size is set here from ctypes.sizeof of its mirror, and the library refuses another size).
 
 Every wrapper raises NativeError (with the library's status and message) on failure, so
@@ -18,7 +18,7 @@ import os
 import sys
 import threading
 
-ABI_VERSION = 6
+ABI_VERSION = 7
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 # File name of the library per platform (sys.platform prefix → name). The add-on zip carries
 # the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
@@ -224,6 +224,9 @@ _SIGNATURES = {
     "airmass_vdb_options_init": (ctypes.c_int32, [ctypes.POINTER(VdbOptions)]),
     "airmass_analytic_density_json": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                        _OUT, ctypes.c_void_p, _SIZE]),
+    "airmass_sun_column_table": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
+                                                  ctypes.c_int32, ctypes.c_int32, ctypes.POINTER(ctypes.c_float),
+                                                  _SIZE, ctypes.c_void_p, _SIZE]),
 }
 
 
@@ -826,3 +829,20 @@ def analytic_density(spec, **vdb):
     _check(lib, status, buf)
     return json.loads(_take_string(lib, out))
 
+
+def sun_column_table(spec, constituent_count, mu_size=256, r_size=64, **vdb):
+    """The sun's columns (airmass_sun_column_table): float32 array [r_size, mu_size, count], per
+    constituent of analytic_density's list (`constituent_count` of them) the mass toward the sun
+    in the unit, on Bruneton's transmittance parametrisation (docs/addon.md, "Analytic Sun")."""
+    import numpy as np
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    opts, keep2 = _vdb_options(lib, **vdb)
+    out = np.zeros((int(r_size), int(mu_size), int(constituent_count)), dtype=np.float32)
+    buf = _message_buffer()
+    status = lib.airmass_sun_column_table(ctypes.byref(c_spec), ctypes.byref(opts), int(mu_size), int(r_size),
+                                          out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size, buf,
+                                          _MESSAGE_SIZE)
+    del keep, keep2
+    _check(lib, status, buf)
+    return out

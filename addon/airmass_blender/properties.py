@@ -293,6 +293,18 @@ class AirmassSettings(bpy.types.PropertyGroup):
                 "One Volume Scatter node per constituent: easier to edit, biased in Cycles 3.4")],
         description="How the constituents' phase functions share the volume material (Blender < 4.3; "
                     "4.3+ keeps one node per constituent with its own phase type)")
+    volume_lighting: EnumProperty(
+        name="Lighting", default="SCATTER",
+        items=[("SCATTER", "Volume Scatter",
+                "Cycles samples the Sun lamp through the volume (Volume Scatter): any light, shadows of the "
+                "scene's geometry in the air, more bounces on request; noisy, Henyey-Greenstein phases before "
+                "Blender 4.3"),
+               ("SUN_EMISSION", "Analytic Sun",
+                "The single-scattered sunlight is computed in the shader (the library's phase functions, the sun's "
+                "optical depth from a table the library makes, the planet's shadow) and emitted, the volume only "
+                "absorbs: nearly noise-free, but only the sun and the planet's shadow light the air (no shadows "
+                "of the scene's objects in it, no other lamps); re-sync after moving the sun (Sun Sync does)")],
+        description="How the sun lights the atmosphere volume (docs/addon.md, 'Analytic Sun')")
     add_ground: BoolProperty(
         name="Ground Sphere", default=True,
         description="Add the planet's ground as a sphere (albedo from the scene)")

@@ -100,6 +100,15 @@ def apply_light(obj, strength, colour, angle):
     obj.data.angle = angle
 
 
+def sync_volume_sun(scene, light):
+    """The Analytic Sun of the scene's atmosphere volume follows the sun (volume.set_material_sun)."""
+    from . import volume
+    for o in scene.objects:
+        if o.get(ROLE) == "atmosphere":
+            for slot in o.material_slots:
+                volume.set_material_sun(slot.material, light)
+
+
 def stop_world_sun_extraction(scene):
     """EEVEE (4.2+) must not extract a second sun from the World while the lamp gives it."""
     if scene.world is not None:
@@ -114,7 +123,7 @@ def settings_to_lamp(scene, create=True):
     obj = find_lamp(scene)
     if obj is None and not create:
         return None
-    strength, colour, angle, _ = lamp_light(scene)
+    strength, colour, angle, light = lamp_light(scene)
     if obj is None:
         obj = new_lamp(scene)
     with _Guard():
@@ -122,6 +131,7 @@ def settings_to_lamp(scene, create=True):
         obj.rotation_euler = lamp_rotation(s.sun_elevation, s.sun_rotation)
         apply_light(obj, strength, colour, angle)
         s.sun_object = obj
+        sync_volume_sun(scene, light)
     stop_world_sun_extraction(scene)
     return obj
 
@@ -138,7 +148,7 @@ def lamp_to_settings(scene):
         s.sun_elevation = elevation
         s.sun_rotation = rotation
     try:
-        strength, colour, angle, _ = lamp_light(scene)
+        strength, colour, angle, light = lamp_light(scene)
     except Exception:
         with _Guard():
             s.sun_elevation, s.sun_rotation = old
@@ -146,6 +156,7 @@ def lamp_to_settings(scene):
     with _Guard():
         apply_light(obj, strength, colour, angle)
         s.sun_object = obj
+        sync_volume_sun(scene, light)
     stop_world_sun_extraction(scene)
     return obj
 

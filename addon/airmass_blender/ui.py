@@ -186,7 +186,10 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         s = context.scene.airmass
         layout.prop(s, "length_unit")
         layout.prop(s, "step_km")
-        layout.prop(s, "phase_mixing")
+        layout.prop(s, "volume_lighting")
+        row = layout.row()
+        row.enabled = s.volume_lighting == "SCATTER"
+        row.prop(s, "phase_mixing")
         layout.prop(s, "add_ground")
         layout.prop(s, "set_units")
         col = layout.column(heading="VDB")

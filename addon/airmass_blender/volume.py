@@ -61,12 +61,79 @@ def units(settings):
 
 # ---- the material: material.py (shared with compare/blender_render.py) ----------------------
 
-def build_material(name, constituents, density_for, phase_mixing="DITHER"):
+def build_material(name, constituents, density_for, phase_mixing="DITHER", sun=None):
     """material.build_material, its MaterialError as the add-on's SettingsError."""
     try:
-        return material.build_material(name, constituents, density_for, phase_mixing=phase_mixing)
+        return material.build_material(name, constituents, density_for, phase_mixing=phase_mixing, sun=sun)
     except material.MaterialError as e:
         raise SettingsError(str(e))
+
+
+# ---- Analytic Sun lighting: the sun's columns and the sun -------------------------------------
+
+SUN_COLUMNS_NAME = "Airmass Sun Columns"
+# Texels of the columns' table (Bruneton 2017 uses 256 × 64 for the transmittance): measured
+# against 1024 × 256 in docs/addon.md ("Analytic Sun").
+SUN_COLUMNS_MU, SUN_COLUMNS_R = 256, 64
+
+
+def sun_inputs(settings, spec, description, unit_name):
+    """What the Analytic Sun needs from the library (no bpy; runs in the job): the sun light
+    and the columns' table [r, mu, constituent]."""
+    light = native.sun_light(spec, chapman=settings.chapman)
+    table = native.sun_column_table(spec, len(description["constituents"]), mu_size=SUN_COLUMNS_MU,
+                                    r_size=SUN_COLUMNS_R, unit=unit_name)
+    return light, table
+
+
+def sun_lighting(description, light, table, created):
+    """material.SunLighting with the table as packed float images (three constituents each,
+    Non-Color data), made through Blender's image API."""
+    import numpy as np
+    names = [c["name"] for c in description["constituents"]]
+    n_r, n_mu, _ = table.shape
+    images, channel = [], {}
+    for first in range(0, len(names), 3):
+        group = names[first:first + 3]
+        px = np.zeros((n_r, n_mu, 4), dtype=np.float32)
+        px[..., 3] = 1.0
+        for ch, name in enumerate(group):
+            px[..., ch] = table[:, :, first + ch]
+            channel[name] = (len(images), ch)
+        image = created.add(bpy.data.images.new(SUN_COLUMNS_NAME, n_mu, n_r, alpha=True, float_buffer=True))
+        image.colorspace_settings.name = "Non-Color"
+        compat.prepare_float_image(image)
+        image.pixels.foreach_set(px.ravel())
+        image.pack()
+        image["airmass_role"] = "sun columns"
+        image["airmass_constituents"] = ",".join(group)
+        images.append(image)
+    return material.SunLighting(
+        direction=light["direction"], irradiance_rgb=light["irradiance_top_rgb"],
+        angular_radius=0.5 * math.radians(light["angular_diameter_deg"]), images=images, channel=channel,
+        center=description["planet_center"], radius=description["planet_radius"],
+        top=description["atmosphere_top"])
+
+
+def set_material_sun(mat, light):
+    """Points an Analytic Sun material at `light` (native.sun_light): Sun Sync calls it for every
+    Airmass atmosphere material after moving the sun. False when `mat` has no sun emission."""
+    nodes = mat.node_tree.nodes if mat is not None and mat.node_tree is not None else None
+    if nodes is None or nodes.get("sun direction") is None:
+        return False
+    sun_vec = nodes["sun direction"]
+    for i in range(3):
+        sun_vec.inputs[i].default_value = float(light["direction"][i])
+    r_mu = nodes.get("sun r mu")
+    if r_mu is not None:
+        centre = mat.get("airmass_planet_center", (0.0, 0.0, 0.0))
+        r_mu.inputs[1].default_value = sum(float(centre[i]) * float(light["direction"][i]) for i in range(3))
+    irradiance = compat.convert_rgb(light["irradiance_top_rgb"])
+    for ch in range(3):
+        node = nodes.get("sun irradiance %d" % ch)
+        if node is not None:
+            node.inputs[1].default_value = max(0.0, float(irradiance[ch]))
+    return True
 
 
 def cutoff_notes(constituents, top_altitude, unit_name):
@@ -247,6 +314,8 @@ def _remove_block(block):
             bpy.data.materials.remove(block)
         elif kind == "Collection":
             bpy.data.collections.remove(block)
+        elif kind == "Image":
+            bpy.data.images.remove(block)
     except ReferenceError:
         pass
 
@@ -264,7 +333,13 @@ def _remove_old(objects):
             _remove_block(data)
         for m in mats:
             if m.users == 0:
+                images = [n.image for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage"
+                          and n.image is not None and n.image.get("airmass_role") == "sun columns"] \
+                    if m.node_tree is not None else []
                 bpy.data.materials.remove(m)
+                for image in images:
+                    if image.users == 0:
+                        bpy.data.images.remove(image)
 
 
 def _collection(scene, created):
@@ -393,9 +468,13 @@ class AnalyticPlan(Plan):
     def work(self, progress):
         scene = native.validate_scene(self.spec)
         self.albedo = float(scene["planet"]["ground_albedo"])
-        return native.analytic_density(self.spec, unit=self.unit_name)
+        description = native.analytic_density(self.spec, unit=self.unit_name)
+        sun = sun_inputs(self.settings, self.spec, description, self.unit_name) \
+            if self.settings.volume_lighting == "SUN_EMISSION" else None
+        return description, sun
 
-    def finish(self, context, description):
+    def finish(self, context, result):
+        description, sun = result
         s = self.settings
         created = Created()
         try:
@@ -406,8 +485,12 @@ class AnalyticPlan(Plan):
             constituents = description["constituents"]
 
             density_for = material.analytic_density(center, R, top_alt, constituents)
-            mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing))
+            lighting = sun_lighting(description, sun[0], sun[1], created) if sun is not None else None
+            mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing,
+                                             sun=lighting))
             mat[ROLE] = "atmosphere"
+            mat["airmass_lighting"] = s.volume_lighting
+            mat["airmass_planet_center"] = list(center)
             axis, theta = view_cap(context, s, description, self.unit_m)
             verts, faces = shell_geometry(center, axis, R * (1.0 - 1e-4), _circumscribe(top, theta), theta)
             # Cycles marches procedural volumes in steps of 0.1 × the object's mean bounding-box
@@ -520,6 +603,7 @@ class VdbPlan(Plan):
         self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
         self.max_dense_mb = s.max_dense_mb
         self.files = []
+        self.sun = None  # (sun light, columns' table) for the Analytic Sun
         self.written = None  # vdb_host.Written once the files are in place
         self.summary = None
 
@@ -531,6 +615,8 @@ class VdbPlan(Plan):
         scene = native.validate_scene(self.spec)
         albedo = float(scene["planet"]["ground_albedo"])
         description = native.analytic_density(self.spec, unit=self.unit_name)
+        self.sun = sun_inputs(self.settings, self.spec, description, self.unit_name) \
+            if self.settings.volume_lighting == "SUN_EMISSION" else None
         try:
             written = vdb_host.write_volume(self.spec, self.folder, self.stem, progress=progress, **self.options())
             self.written = written
@@ -572,9 +658,12 @@ class VdbPlan(Plan):
             grid_names = sorted({g.name for v in volumes for g in v.grids})
             constituents = self._constituents(description, metadata, grid_names)
 
+            lighting = sun_lighting(description, self.sun[0], self.sun[1], created) if self.sun is not None else None
             mat = created.add(build_material(VOLUME_NAME, constituents, material.grid_density(),
-                                             phase_mixing=s.phase_mixing))
+                                             phase_mixing=s.phase_mixing, sun=lighting))
             mat[ROLE] = "atmosphere"
+            mat["airmass_lighting"] = s.volume_lighting
+            mat["airmass_planet_center"] = list(float(x) for x in description["planet_center"])
             new = []
             for i, vol in enumerate(volumes):
                 vol.materials.append(mat)

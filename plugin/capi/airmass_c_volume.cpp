@@ -253,4 +253,21 @@ int32_t airmass_analytic_density_json(const airmass_scene_spec* spec, const airm
     });
 }
 
+int32_t airmass_sun_column_table(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                 int32_t mu_size, int32_t r_size, float* values, size_t float_count, char* message,
+                                 size_t message_size) {
+    return guarded(message, message_size, [&] {
+        const airmass::VdbOptions vdb = vdb_options_from(options);
+        const Scene scene = build_scene(spec);
+        const airmass::SunColumnTable table = airmass::sun_column_table(scene, vdb, mu_size, r_size);
+        if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
+        if (float_count != table.mass.size())
+            throw AbiError(AIRMASS_INVALID_ARGUMENT,
+                           "float_count = " + std::to_string(float_count) + ": must be r_size × mu_size × " +
+                               std::to_string(table.names.size()) + " constituents = " +
+                               std::to_string(table.mass.size()));
+        std::copy(table.mass.begin(), table.mass.end(), values);
+    });
+}
+
 }  // extern "C"

@@ -189,6 +189,7 @@ def terrain_common(scene, s):
 def scene_terrain_volume(scene, s):
     terrain_common(scene, s)
     s.volume_region, s.view_distance, s.step_km = "VIEW", 300.0, 3.0
+    s.volume_lighting = "SUN_EMISSION"
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="ANALYTIC")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
@@ -210,6 +211,7 @@ def scene_sunset_shadow(scene, s):
     s.sun_elevation, s.sun_rotation = math.radians(-1.0), math.radians(270.0)
     camera(scene, (0.0, 0.0, 0.002), pitch_deg=18.0, heading_deg=90.0, lens=24.0)
     s.volume_region, s.step_km = "PLANET", 4.0
+    s.volume_lighting = "SUN_EMISSION"
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="ANALYTIC")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
@@ -222,6 +224,7 @@ def scene_limb_vdb(scene, s):
     s.sun_elevation, s.sun_rotation = math.radians(12.0), math.radians(35.0)
     camera(scene, (0.0, 0.0, h), pitch_deg=-dip + 7.0, heading_deg=0.0, lens=22.0)
     s.volume_region, s.view_distance, s.step_km = "VIEW", 3300.0, 8.0
+    s.volume_lighting = "SUN_EMISSION"
     op(bpy.ops.airmass.create_volume, "airmass.create_volume", mode="VDB")
     op(bpy.ops.airmass.sun_sync, "airmass.sun_sync", direction="TO_LAMP")
     black_world(scene)
@@ -338,7 +341,7 @@ def main():
         "sun_rotation_deg": round(math.degrees(s.sun_rotation), 3),
         "camera": {"location_km": list(scene.camera.location), "lens_mm": scene.camera.data.lens},
         "airmass": {"preset": s.preset, "volume_region": s.volume_region, "view_distance_km": s.view_distance,
-                    "step_km": s.step_km, "phase_mixing": s.phase_mixing, "sky_width": s.sky_width,
+                    "step_km": s.step_km, "volume_lighting": s.volume_lighting, "phase_mixing": s.phase_mixing, "sky_width": s.sky_width,
                     "sun_disc": s.sun_disc},
         "lamp": None if lamp is None else {"strength": lamp.data.energy, "colour": list(lamp.data.color),
                                            "angle_deg": math.degrees(lamp.data.angle)},

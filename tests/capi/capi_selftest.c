@@ -351,6 +351,33 @@ int main(int argc, char** argv) {
         if (plan) airmass_string_free(plan);
     }
 
+    /* ---- the sun's columns (ABI 7): at the ground, straight up, each constituent's vertical column
+     * in km — closed forms of the earth preset's profiles: Rayleigh 8 (1 − e^−7.5), Mie 1.2
+     * (1 − e^−50), the ozone tent 10–25–40 km 15 — and sizes outside [2, 4096] refused by name. ---- */
+    if (airmass_has_vdb()) {
+        airmass_scene_spec cs;
+        cs.struct_size = sizeof cs;
+        airmass_scene_spec_init(&cs);
+        cs.preset = "earth";
+        airmass_vdb_options co;
+        co.struct_size = sizeof co;
+        airmass_vdb_options_init(&co);
+        co.unit = "km";
+        float columns[8 * 4 * 3];
+        const int32_t s = airmass_sun_column_table(&cs, &co, 8, 4, columns, 8 * 4 * 3, msg, sizeof msg);
+        const double want[3] = {8.0 * (1.0 - exp(-7.5)), 1.2 * (1.0 - exp(-50.0)), 15.0};
+        snprintf(detail, sizeof detail, "status %d %s, %.7g %.7g %.7g", (int)s, msg, columns[0], columns[1], columns[2]);
+        check(s == AIRMASS_OK && fabs(columns[0] - want[0]) < 1e-5 * want[0] &&
+                  fabs(columns[1] - want[1]) < 1e-5 * want[1] && fabs(columns[2] - want[2]) < 1e-5 * want[2],
+              "sun columns straight up from the ground: the profiles' vertical columns", detail);
+        const int32_t s2 = airmass_sun_column_table(&cs, &co, 1, 4, columns, 12, msg, sizeof msg);
+        check(s2 == AIRMASS_SETTINGS_ERROR && contains(msg, "mu_size") && contains(msg, "[2, 4096]"),
+              "sun columns: mu_size 1 refused, naming the field and range", msg);
+        const int32_t s3 = airmass_sun_column_table(&cs, &co, 8, 4, columns, 95, msg, sizeof msg);
+        check(s3 == AIRMASS_INVALID_ARGUMENT && contains(msg, "float_count"), "sun columns: a short buffer refused",
+              msg);
+    }
+
     /* ---- the sun lamp ---- */
     {
         airmass_sun_light sun;

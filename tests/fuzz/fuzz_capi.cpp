@@ -12,7 +12,7 @@
 // scattering, a dense limit of at most 0.5 MB. Then it calls airmass_validate_scene,
 // airmass_sun_light_at_observer, airmass_solar_position, airmass_render_sky and the same sky
 // through airmass_sky_session_create/render (C ABI 6), airmass_analytic_density_json,
-// airmass_vdb_plan and airmass_vdb_grid_values (a block of at most 8x8x8 voxels).
+// airmass_sun_column_table (C ABI 7), airmass_vdb_plan and airmass_vdb_grid_values (a block of at most 8x8x8 voxels).
 // Oracle: every call returns a known airmass_status; a failure carries a non-empty message;
 // success gives finite, non-negative pixels / irradiances / values and a sun position in range;
 // a NUL-terminated message buffer is never overrun (ASan).
@@ -390,6 +390,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         require(nlohmann::json::accept(json), "returned JSON does not parse");
     }
     if (json) airmass_string_free(json), json = nullptr;
+
+    {  // C ABI 7: the sun's columns, sizes around the allowed range, a buffer of any size
+        const int32_t mu_size = in.ConsumeIntegralInRange<int32_t>(-1, 24);
+        const int32_t r_size = in.ConsumeIntegralInRange<int32_t>(-1, 12);
+        std::vector<float> columns(in.ConsumeIntegralInRange<std::size_t>(0, 24 * 12 * 16));
+        if (status_ok(airmass_sun_column_table(&spec, &vdb, mu_size, r_size, columns.data(), columns.size(), msg,
+                                               message_size))) {
+            require(mu_size >= 2 && r_size >= 2 && columns.size() % (std::size_t(mu_size) * r_size) == 0,
+                    "sun column table accepted sizes it should refuse");
+            for (float v : columns) require(std::isfinite(v) && v >= 0.0f, "sun column not finite or negative");
+        }
+    }
 
     if (!valid || (wild && !in.ConsumeBool())) return 0;
     // A volume outside the tame sizes (a raw dense limit above 0.5 MB, or a raw voxel size giving

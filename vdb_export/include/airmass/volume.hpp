@@ -386,6 +386,32 @@ std::string volume_tiles_manifest(const VdbLayout& layout, const VdbStats& stats
 // Schema in docs/vdb.md, "Analytic density".
 std::string analytic_density_json(const Scene& scene, const VdbOptions& options);
 
+// ---- the sun's columns (renderers that light the atmosphere themselves) ----------------------
+//
+// For the Blender add-on's "Analytic Sun" lighting (docs/addon.md): a table, per active
+// constituent in analytic_density_json's order, of the mass ∫ρ ds (in `unit`, density 1 = the
+// profile's reference) along the ray from a point toward the sun to the top of the atmosphere,
+// the library's own optical depth (sun_masses). Texel (i, j) holds the ray of
+// sun_column_ray(x_mu = i / (mu_size − 1), x_r = j / (r_size − 1)): Bruneton's (2017)
+// transmittance-texture parametrisation, every ray that reaches the top without meeting the
+// ground — x_r = ρ/H (ρ = sqrt(r² − R²), H = sqrt(top² − R²)), x_mu = (d − d_min)/(d_max − d_min)
+// (d the distance to the top along the ray, d_min = top − r straight up, d_max = ρ + H grazing
+// the ground). A renderer reads it at u = (x_mu·(mu_size − 1) + 0.5)/mu_size and likewise v, and
+// sets the sun to 0 below the horizon (mu < −ρ/r).
+struct SunColumnRay {
+    double r = 0;   // radius of the point, unit
+    double mu = 1;  // cosine of the sun's zenith angle there
+};
+SunColumnRay sun_column_ray(double planet_radius, double atmosphere_top, double x_mu, double x_r);
+
+struct SunColumnTable {
+    int mu_size = 0, r_size = 0;
+    std::vector<std::string> names;  // the layout's constituents, analytic_density_json's order
+    std::vector<float> mass;         // [(j · mu_size + i) · names.size() + k], in the unit
+};
+// mu_size, r_size in [2, 4096] (VdbError naming them otherwise).
+SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size);
+
 // A POV-Ray 3.7 include declaring, per active constituent, the density as a function
 // of POV-Ray's (x, y, z) (y up: POV (x, y, z) = airmass (x, z, y), the planet centre
 // at <0, −R, 0> for PlanetOrigin::surface), its maximum, and its RGB coefficients.

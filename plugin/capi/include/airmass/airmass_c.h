@@ -42,7 +42,7 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 6  /* 2: airmass_sky_options.multiple_scattering
+#define AIRMASS_C_ABI_VERSION 7  /* 2: airmass_sky_options.multiple_scattering
                                     3: no files: the sky and the volume grids are returned as
                                        float buffers that the host writes (Blender's image API,
                                        its own OpenVDB module); airmass_write_sky_exr and
@@ -54,7 +54,8 @@ extern "C" {
                                     6: sky sessions (airmass_sky_session_*: the atmosphere and its
                                        multiple-scattering tables made once, a sky per sun
                                        direction); airmass_sky_options gains multiple_grid and
-                                       multiple_samples (its size differs from ABI 5's) */
+                                       multiple_samples (its size differs from ABI 5's)
+                                    7: airmass_sun_column_table (added; nothing else changed) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -380,6 +381,17 @@ AIRMASS_C_API int32_t airmass_vdb_grid_values(const airmass_scene_spec* spec, co
 AIRMASS_C_API int32_t airmass_analytic_density_json(const airmass_scene_spec* spec,
                                                     const airmass_vdb_options* options, char** json,
                                                     char* message, size_t message_size);
+
+/* The sun's columns for a host that lights the atmosphere itself (the add-on's Analytic Sun
+ * lighting; volume.hpp sun_column_table, docs/addon.md): per active constituent, in
+ * airmass_analytic_density_json's order, the mass ∫ρ ds in options->unit along the ray from a
+ * point toward the sun to the top of the atmosphere, on Bruneton's transmittance-texture
+ * parametrisation (texel (i, j): x_mu = i/(mu_size−1), x_r = j/(r_size−1)). mu_size and r_size
+ * in [2, 4096]; `values` holds exactly r_size × mu_size × (constituent count) floats, laid out
+ * [(j · mu_size + i) · count + k]. Cheap (milliseconds): no job. */
+AIRMASS_C_API int32_t airmass_sun_column_table(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                               int32_t mu_size, int32_t r_size, float* values, size_t float_count,
+                                               char* message, size_t message_size);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,75 @@
+// The sun's columns for renderers that light the atmosphere themselves (volume.hpp,
+// sun_column_table): per constituent, the mass along the ray from a point toward the sun
+// to the top of the atmosphere, on Bruneton's transmittance-texture parametrisation, from
+// the library's own optical depth (sun_masses: Chapman for exponential profiles, closed
+// form for piecewise-linear ones).
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "airmass/atmosphere.hpp"
+#include "airmass/optical_depth.hpp"
+#include "airmass/volume.hpp"
+
+namespace airmass {
+
+SunColumnRay sun_column_ray(double planet_radius, double atmosphere_top, double x_mu, double x_r) {
+    const double R = planet_radius, top = atmosphere_top;
+    const double H = std::sqrt(std::max(0.0, top * top - R * R));
+    const double rho = H * std::clamp(x_r, 0.0, 1.0);
+    const double r = std::sqrt(rho * rho + R * R);
+    const double d_min = top - r, d_max = rho + H;
+    const double d = d_min + std::clamp(x_mu, 0.0, 1.0) * (d_max - d_min);
+    const double mu = d <= 0.0 ? 1.0 : std::clamp((H * H - rho * rho - d * d) / (2.0 * r * d), -1.0, 1.0);
+    return {r, mu};
+}
+
+SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size) {
+    if (mu_size < 2 || mu_size > 4096)
+        throw VdbError("sun column table: mu_size = " + std::to_string(mu_size) + ": must be in [2, 4096]");
+    if (r_size < 2 || r_size > 4096)
+        throw VdbError("sun column table: r_size = " + std::to_string(r_size) + ": must be in [2, 4096]");
+    const VdbLayout layout = resolve_vdb_layout(scene, options);
+    const Atmosphere atmosphere = compile_atmosphere(scene, layout.rgb_wavelengths_nm);
+    const std::size_t n_atm = atmosphere.constituents.size();
+
+    SunColumnTable table;
+    table.mu_size = mu_size;
+    table.r_size = r_size;
+    std::vector<std::size_t> from;  // layout constituent k → its index in the atmosphere
+    for (const auto& c : layout.constituents) {
+        const auto it = std::find_if(atmosphere.constituents.begin(), atmosphere.constituents.end(),
+                                     [&](const AtmosphereConstituent& a) { return a.name == c.name; });
+        if (it == atmosphere.constituents.end())
+            throw std::logic_error("sun column table: constituent '" + c.name + "' is not in the atmosphere");
+        from.push_back(static_cast<std::size_t>(it - atmosphere.constituents.begin()));
+        table.names.push_back(c.name);
+    }
+    const std::size_t nc = from.size();
+    table.mass.assign(static_cast<std::size_t>(mu_size) * static_cast<std::size_t>(r_size) * nc, 0.0f);
+
+    const double L = layout.metres_per_unit;
+    const double R = layout.planet_radius, top = layout.atmosphere_top;
+    std::vector<double> mass(n_atm), previous(n_atm, 0.0);
+    for (int j = 0; j < r_size; ++j) {
+        for (int i = 0; i < mu_size; ++i) {
+            const SunColumnRay ray = sun_column_ray(R, top, double(i) / (mu_size - 1), double(j) / (r_size - 1));
+            const double altitude_m = std::max(0.0, (ray.r - R) * L);
+            // The last column (x_mu = 1) is the ray grazing the ground; nudged up until lit.
+            double mu = ray.mu;
+            bool lit = sun_masses(atmosphere, altitude_m, ZenithAngle<double>::from_cos(mu), mass);
+            for (int k = 0; !lit && k < 8; ++k) {
+                mu = std::min(1.0, mu + 1e-9 * std::pow(10.0, k));
+                lit = sun_masses(atmosphere, altitude_m, ZenithAngle<double>::from_cos(mu), mass);
+            }
+            if (!lit) mass = previous;  // the neighbour toward the zenith (i > 0 here)
+            previous = mass;
+            float* out = table.mass.data() + (static_cast<std::size_t>(j) * mu_size + i) * nc;
+            for (std::size_t k = 0; k < nc; ++k) out[k] = static_cast<float>(mass[from[k]] / L);
+        }
+    }
+    return table;
+}
+
+}  // namespace airmass
