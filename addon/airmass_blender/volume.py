@@ -72,8 +72,8 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", sun=N
 # ---- Analytic Sun lighting: the sun's columns and the sun -------------------------------------
 
 SUN_COLUMNS_NAME = "Airmass Sun Columns"
-# Texels of the columns' table (Bruneton 2017 uses 256 × 64 for the transmittance): measured
-# against 1024 × 256 in docs/addon.md ("Analytic Sun").
+# Texels of the columns' table (Bruneton 2017 uses 256 × 64 for the transmittance); the error of
+# this and other sizes against quadrature: bench/analytic_sun_trade.sh, docs/addon.md.
 SUN_COLUMNS_MU, SUN_COLUMNS_R = 256, 64
 
 

@@ -115,8 +115,10 @@ def caption_lines(sm):
     st = sm["settings"]
     total = sum(sm["render_seconds"])
     what = {"terrain_sky": "sky texture + Sun lamp, no volume"}.get(
-        sm["scene"], "%s volume%s" % ("VDB" if sm["scene"].endswith("vdb") else "analytic",
-                                      ", step %.3g km" % a["step_km"]))
+        sm["scene"], "%s volume%s%s" % ("VDB" if sm["scene"].endswith("vdb") else "analytic",
+                                        {"SUN_EMISSION": ", Analytic Sun", "SCATTER": ", Volume Scatter"}.get(
+                                            a.get("volume_lighting"), ""),
+                                        ", step %.3g km" % a["step_km"]))
     line1 = "%s  —  sun %.1f°, %s" % (sm["title"], st["sun_elevation_deg"], what)
     line2 = ("%d × %d, %d seeds × %d samples = %d spp, Cycles CPU (Blender %s), no denoiser, bounces: diffuse %d, "
              "volume %d" % (sm["width"], sm["height"], sm["seeds"], sm["samples_per_seed"], sm["samples_per_pixel"],
