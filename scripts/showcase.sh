@@ -66,9 +66,9 @@ export BLENDER_USER_CONFIG=$USERDIR/config BLENDER_USER_SCRIPTS=$USERDIR/scripts
 # name | title | samples per seed (at scale 1) | exposure (EV)
 SCENES=(
   "terrain_sky|The same mountains, Airmass sky texture only|8|-2.4"
-  "terrain_volume|Mountains at golden hour, Airmass volume|6|-2.5"
-  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|10|-0.5"
-  "limb_vdb|The limb from 400 km, VDB volume|24|-4.6"
+  "terrain_volume|Mountains at golden hour, Airmass volume|16|-2.5"
+  "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|8|-0.5"
+  "limb_vdb|The limb from 400 km, VDB volume|64|-4.6"
 )
 
 status=0

@@ -247,6 +247,11 @@ class BakePlan(Plan):
         first, last = self.frames[0][0], self.frames[-1][0]
         self.summary = ("Baked frames %d–%d: %d rendered, %d unchanged, into %s"
                         % (first, last, len(self.todo), len(self.frames) - len(self.todo), self.folder))
+        if any(slot.material is not None and slot.material.get("airmass_lighting") == "SUN_EMISSION"
+               for o in scene.objects if o.get("airmass_role") == "atmosphere" for slot in o.material_slots):
+            # Not keyed (yet): the Analytic Sun volume's sun is a constant of its material.
+            self.summary += ("; note: the atmosphere volume's Analytic Sun keeps one sun (not animated): use "
+                             "Lighting 'Volume Scatter' for an animated volume")
 
     def _commit_files(self, undo, backups):
         """Renames the staged frames into place; the files they replace are kept aside until the

@@ -244,9 +244,17 @@ class SunLighting:
     Rec.709 (W m⁻², the Sun lamp's strength × colour); angular_radius: of the sun disc (rad);
     images: float images holding the columns, three constituents per image (R, G, B), texel
     (i, j) at x_mu = i/(width − 1), x_r = j/(height − 1); channel: {constituent name: (image
-    index, channel index)}; center, radius, top: planet centre, radius, radius of the top."""
+    index, channel index)}; center, radius, top: planet centre, radius, radius of the top;
+    ms_image: Hillaire's isotropic multiple scattering Ψ (RGB, per unit irradiance, sr⁻¹), texel
+    (i, j) at μs = ms_mu_s_min + (1 − ms_mu_s_min)·i/(width − 1), x_r = j/(height − 1), or None."""
 
-    def __init__(self, direction, irradiance_rgb, angular_radius, images, channel, center, radius, top):
+    def __init__(self, direction, irradiance_rgb, angular_radius, images, channel, center, radius, top,
+                 extinction, ms_image=None, ms_mu_s_min=-1.0):
+        # {name: σs + σa, linear Rec.709, per Blender unit} of *every* constituent of the scene: the
+        # sun's path crosses them all, also those a VDB region holds no voxel of.
+        self.extinction = {n: tuple(float(x) for x in v) for n, v in extinction.items()}
+        self.ms_image = ms_image  # Ψ (native.sun_ms_table) as RGB, or None: single scattering only
+        self.ms_mu_s_min = float(ms_mu_s_min)
         self.direction = tuple(float(x) for x in direction)
         self.irradiance_rgb = tuple(float(x) for x in irradiance_rgb)
         self.angular_radius = float(angular_radius)
@@ -289,12 +297,17 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
     — the integrand of the library's single scattering (single_scattering.hpp), which Cycles
     then integrates along the ray with the volume's extinction. m_k: constituent k's column
     toward the sun from the table (bilinear), r = |p − c|, μ = the sun's zenith cosine there;
-    f: the fraction of the sun's disc above the planet's horizon, linear in the sun's
-    elevation above the horizon, (rμ + ρ)/R, across the disc's diameter (ρ = sqrt(r² − R²)).
+    f: the fraction of the sun's disc above the planet's horizon (the area of a disc of angular
+    radius α above a straight line at the sun's elevation e = (rμ + ρ)/R over that horizon,
+    ρ = sqrt(r² − R²)).
 
-    `scatterers`: [(constituent dict, σs rgb, density socket or float)]; `extinctions`: [(name,
-    σs + σa rgb)] of every constituent; `irradiance_ws`: the sun's top-of-atmosphere RGB; all in
-    the working space."""
+    With sun.ms_image, every order of multiple scattering is added as Hillaire's (2020) isotropic
+    source, unshadowed: + E_top ⊙ Ψ(r, μs) ⊙ Σ_j σs_j ρ_j.
+
+    `scatterers`: [(constituent dict, σs rgb, density socket or float)]; `extinctions`: {name:
+    σs + σa rgb} of every constituent of the scene (the material's own may be fewer: a VDB region
+    without voxels of one); `irradiance_ws`: the sun's top-of-atmosphere RGB; all in the working
+    space."""
     R, top = sun.radius, sun.top
     H = math.sqrt(max(0.0, top * top - R * R))
     c = sun.center
@@ -339,15 +352,20 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
                 columns[name] = sep.outputs[ch]
     # −τ per channel, then T; the sun's irradiance and the disc fraction folded in.
     minus_tau = [0.0, 0.0, 0.0]
-    for name, ext in extinctions:
+    for name, ext in extinctions.items():
         if name not in columns:
             raise MaterialError("constituent '%s' has no column in the sun's table" % name)
         for ch in range(3):
             if ext[ch] > 0.0:
                 minus_tau[ch] = nb.math("MULTIPLY_ADD", columns[name], -float(ext[ch]), minus_tau[ch])
     if sun.angular_radius > 0.0:
-        lit = nb.math("MULTIPLY_ADD", nb.math("ADD", r_mu, rho), 1.0 / (2.0 * sun.angular_radius * R), 0.5)
-        lit.node.use_clamp = True
+        # x = e/α clamped to [−1, 1], e = (rμ + ρ)/R the sun's elevation over the planet's horizon:
+        # the disc's area above a straight horizon, ½ + (x sqrt(1 − x²) + asin x)/π.
+        x = nb.math("MINIMUM", nb.math("MAXIMUM", nb.math("MULTIPLY", nb.math("ADD", r_mu, rho),
+                                                          1.0 / (sun.angular_radius * R)), -1.0), 1.0)
+        chord = nb.math("MULTIPLY", x, nb.math("SQRT", nb.math("MULTIPLY_ADD", x, nb.math("MULTIPLY", x, -1.0), 1.0)))
+        lit = nb.math("MULTIPLY_ADD", nb.math("ADD", chord, nb.math("ARCSINE", x)), 1.0 / math.pi, 0.5)
+        lit = nb.math("MULTIPLY", lit, nb.math("GREATER_THAN", x, -1.0))  # exactly 0 below the disc (no rounding)
     else:
         lit = nb.math("GREATER_THAN", nb.math("ADD", r_mu, rho), 0.0)
     lit.node.name = lit.node.label = "sun disc above the horizon"
@@ -360,12 +378,36 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
         for ch in range(3):
             if sigma_s[ch] > 0.0:
                 source[ch] = nb.math("MULTIPLY_ADD", weight, float(sigma_s[ch]), source[ch])
+    psi = None
+    ms_source = [0.0, 0.0, 0.0]
+    if sun.ms_image is not None:
+        w, h = sun.ms_image.size
+        lo = sun.ms_mu_s_min
+        mu_s = nb.math("DIVIDE", r_mu, r)
+        uv = nb.node("ShaderNodeCombineXYZ")
+        nb.tree.links.new(nb.math("MULTIPLY_ADD", mu_s, (w - 1.0) / (w * (1.0 - lo)), (0.5 - lo * (w - 1.0) / (1.0 - lo)) / w),
+                          uv.inputs[0])
+        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_r, (h - 1.0) / h, 0.5 / h), uv.inputs[1])
+        tex = nb.node("ShaderNodeTexImage", name="sun multiple scattering", label="sun multiple scattering",
+                      interpolation="Linear", extension="EXTEND")
+        tex.image = sun.ms_image
+        nb.tree.links.new(uv.outputs[0], tex.inputs["Vector"])
+        sep = nb.node("ShaderNodeSeparateXYZ")
+        nb.tree.links.new(tex.outputs["Color"], sep.inputs[0])
+        psi = [sep.outputs[ch] for ch in range(3)]
+        for _cdesc, sigma_s, density in scatterers:
+            for ch in range(3):
+                if sigma_s[ch] > 0.0:
+                    ms_source[ch] = nb.math("MULTIPLY_ADD", density, float(sigma_s[ch]), ms_source[ch])
     rgb = nb.node("ShaderNodeCombineXYZ", name="sun emission colour", label="sun emission colour")
     for ch in range(3):
         e = float(irradiance_ws[ch])
         term = nb.math("MULTIPLY", nb.math("EXPONENT", minus_tau[ch]) if not isinstance(minus_tau[ch], float)
                        else math.exp(minus_tau[ch]), lit)
         term = nb.math("MULTIPLY", term, source[ch]) if not isinstance(source[ch], float) else 0.0
+        if psi is not None and not isinstance(ms_source[ch], float):
+            ms = nb.math("MULTIPLY", psi[ch], ms_source[ch], name="multiple scattering %d" % ch)
+            term = ms if isinstance(term, float) else nb.math("ADD", term, ms)
         if isinstance(term, float):
             rgb.inputs[ch].default_value = 0.0
         else:
@@ -415,7 +457,7 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
         dither = phase_mixing == "DITHER" and compat.needs_phase_dither(
             [("henyey_greenstein", constituent_hg_g(c)) for c in scatterers])
         dithered = []
-        emitters, extinctions = [], []
+        emitters = []
         for c in constituents:
             sigma_s = [max(0.0, float(x)) for x in c["scattering_rgb"]]
             sigma_a = [max(0.0, float(x)) for x in c["absorption_rgb"]]
@@ -427,7 +469,6 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
             n = c["name"]
             density = density_for(nb, n)
             phase = c.get("phase", "isotropic")
-            extinctions.append((n, [a + b for a, b in zip(ws_s, ws_a)]))
             if max(ws_s) > 0.0 and sun is not None:
                 ds = max(ws_s)
                 node = nb.node("ShaderNodeVolumeAbsorption", name="%s extinction" % n, label="%s extinction" % n)
@@ -465,7 +506,8 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", stand
             shaders.append(dithered_scatter(nb, dithered).outputs[0])
         if emitters:
             irradiance = [max(0.0, x) for x in compat.convert_rgb(sun.irradiance_rgb, matrix)]
-            shaders.append(sun_emission(nb, emitters, extinctions, sun, irradiance).outputs[0])
+            ext_ws = {n: [max(0.0, x) for x in compat.convert_rgb(v, matrix)] for n, v in sun.extinction.items()}
+            shaders.append(sun_emission(nb, emitters, ext_ws, sun, irradiance).outputs[0])
         if not shaders:
             raise MaterialError("the scene has no constituent that scatters or absorbs light")
         total = shaders[0]

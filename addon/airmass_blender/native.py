@@ -227,6 +227,9 @@ _SIGNATURES = {
     "airmass_sun_column_table": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                   ctypes.c_int32, ctypes.c_int32, ctypes.POINTER(ctypes.c_float),
                                                   _SIZE, ctypes.c_void_p, _SIZE]),
+    "airmass_sun_ms_table": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
+                                              ctypes.c_int32, ctypes.c_int32, ctypes.POINTER(ctypes.c_float), _SIZE,
+                                              ctypes.POINTER(ctypes.c_double), ctypes.c_void_p, _SIZE]),
 }
 
 
@@ -846,3 +849,22 @@ def sun_column_table(spec, constituent_count, mu_size=256, r_size=64, **vdb):
     del keep, keep2
     _check(lib, status, buf)
     return out
+
+
+def sun_ms_table(spec, mu_size=64, r_size=32, **vdb):
+    """The multiple scattering of the Analytic Sun (airmass_sun_ms_table): (float32 array
+    [r_size, mu_size, 3] of Hillaire's isotropic Ψ per unit top-of-atmosphere irradiance at the
+    exporter's RGB wavelengths, mu_s_min of its sun axis)."""
+    import numpy as np
+    lib = library()
+    c_spec, keep = spec._to_c(lib)
+    opts, keep2 = _vdb_options(lib, **vdb)
+    out = np.zeros((int(r_size), int(mu_size), 3), dtype=np.float32)
+    mu_s_min = ctypes.c_double(float("nan"))
+    buf = _message_buffer()
+    status = lib.airmass_sun_ms_table(ctypes.byref(c_spec), ctypes.byref(opts), int(mu_size), int(r_size),
+                                      out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size,
+                                      ctypes.byref(mu_s_min), buf, _MESSAGE_SIZE)
+    del keep, keep2
+    _check(lib, status, buf)
+    return out, mu_s_min.value

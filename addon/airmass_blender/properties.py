@@ -305,6 +305,11 @@ class AirmassSettings(bpy.types.PropertyGroup):
                 "absorbs: nearly noise-free, but only the sun and the planet's shadow light the air (no shadows "
                 "of the scene's objects in it, no other lamps); re-sync after moving the sun (Sun Sync does)")],
         description="How the sun lights the atmosphere volume (docs/addon.md, 'Analytic Sun')")
+    volume_multiple: BoolProperty(
+        name="Multiple Scattering", default=True,
+        description="Analytic Sun: add every order of multiple scattering as Hillaire's isotropic source from a "
+                    "table the library makes (it lights the Earth's shadow and the twilight sky, as in the sky "
+                    "texture); off: single scattering only")
     add_ground: BoolProperty(
         name="Ground Sphere", default=True,
         description="Add the planet's ground as a sphere (albedo from the scene)")

@@ -122,6 +122,8 @@ def settings_to_lamp(scene, create=True):
     s = scene.airmass
     obj = find_lamp(scene)
     if obj is None and not create:
+        if any(o.get(ROLE) == "atmosphere" for o in scene.objects):  # no lamp: the volume's sun still moves
+            sync_volume_sun(scene, lamp_light(scene)[3])
         return None
     strength, colour, angle, light = lamp_light(scene)
     if obj is None:

@@ -188,6 +188,9 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         layout.prop(s, "step_km")
         layout.prop(s, "volume_lighting")
         row = layout.row()
+        row.enabled = s.volume_lighting == "SUN_EMISSION"
+        row.prop(s, "volume_multiple")
+        row = layout.row()
         row.enabled = s.volume_lighting == "SCATTER"
         row.prop(s, "phase_mixing")
         layout.prop(s, "add_ground")

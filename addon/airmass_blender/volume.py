@@ -72,47 +72,86 @@ def build_material(name, constituents, density_for, phase_mixing="DITHER", sun=N
 # ---- Analytic Sun lighting: the sun's columns and the sun -------------------------------------
 
 SUN_COLUMNS_NAME = "Airmass Sun Columns"
+SUN_MS_NAME = "Airmass Sun Multiple Scattering"
 # Texels of the columns' table (Bruneton 2017 uses 256 × 64 for the transmittance); the error of
 # this and other sizes against quadrature: bench/analytic_sun_trade.sh, docs/addon.md.
 SUN_COLUMNS_MU, SUN_COLUMNS_R = 256, 64
 
 
-def sun_inputs(settings, spec, description, unit_name):
-    """What the Analytic Sun needs from the library (no bpy; runs in the job): the sun light
-    and the columns' table [r, mu, constituent]."""
-    light = native.sun_light(spec, chapman=settings.chapman)
+# Texels of Hillaire's isotropic multiple-scattering table Ψ(μs, altitude): it is smooth (the
+# library's own table is 24 sun × 12 altitude nodes); error: bench/analytic_sun_trade.sh.
+SUN_MS_MU, SUN_MS_R = 64, 32
+SUN_TABLE_ROLES = ("sun columns", "sun multiple scattering")
+
+
+def sun_choice(settings):
+    """The Analytic Sun's settings, read on the main thread when the operator starts (the job's
+    work() must not touch bpy): None for Volume Scatter, else {"multiple", "chapman"}."""
+    if settings.volume_lighting != "SUN_EMISSION":
+        return None
+    return {"multiple": bool(settings.volume_multiple), "chapman": settings.chapman}
+
+
+def sun_inputs(choice, spec, description, unit_name):
+    """What the Analytic Sun needs from the library (no bpy; runs in the job): the columns'
+    table [r, mu, constituent] and, with Multiple Scattering, (Ψ [r, mu, rgb], mu_s_min)."""
     table = native.sun_column_table(spec, len(description["constituents"]), mu_size=SUN_COLUMNS_MU,
                                     r_size=SUN_COLUMNS_R, unit=unit_name)
-    return light, table
+    ms = native.sun_ms_table(spec, mu_size=SUN_MS_MU, r_size=SUN_MS_R, unit=unit_name) \
+        if choice["multiple"] else None
+    return table, ms
 
 
-def sun_lighting(description, light, table, created):
-    """material.SunLighting with the table as packed float images (three constituents each,
-    Non-Color data), made through Blender's image API."""
+def _data_image(name, role, rgb, created):
+    """A packed 32-bit float image of rgb [rows, columns, 3] (bottom row first), Non-Color data,
+    made through Blender's image API."""
+    import numpy as np
+    n_r, n_mu, _ = rgb.shape
+    px = np.ones((n_r, n_mu, 4), dtype=np.float32)
+    px[..., :3] = rgb
+    image = created.add(bpy.data.images.new(name, n_mu, n_r, alpha=True, float_buffer=True))
+    image.colorspace_settings.name = "Non-Color"
+    compat.prepare_float_image(image)
+    image.pixels.foreach_set(px.ravel())
+    image.pack()
+    # The table holds masses in km (up to hundreds): an 8-bit packing would clamp them to 1.
+    if image.packed_file is None or not image.is_float or abs(image.pixels[0] - float(px.flat[0])) > \
+            1e-6 * max(1.0, abs(float(px.flat[0]))):
+        raise RuntimeError("Blender could not keep the %s as a packed float image" % name)
+    image["airmass_role"] = role
+    return image
+
+
+def sun_lighting(description, light, table, created, ms=None):
+    """material.SunLighting for the current sun `light` (native.sun_light) and the tables of
+    sun_inputs as packed float images (three constituents per image, Non-Color data)."""
     import numpy as np
     names = [c["name"] for c in description["constituents"]]
     n_r, n_mu, _ = table.shape
     images, channel = [], {}
     for first in range(0, len(names), 3):
         group = names[first:first + 3]
-        px = np.zeros((n_r, n_mu, 4), dtype=np.float32)
-        px[..., 3] = 1.0
+        rgb = np.zeros((n_r, n_mu, 3), dtype=np.float32)
         for ch, name in enumerate(group):
-            px[..., ch] = table[:, :, first + ch]
+            rgb[..., ch] = table[:, :, first + ch]
             channel[name] = (len(images), ch)
-        image = created.add(bpy.data.images.new(SUN_COLUMNS_NAME, n_mu, n_r, alpha=True, float_buffer=True))
-        image.colorspace_settings.name = "Non-Color"
-        compat.prepare_float_image(image)
-        image.pixels.foreach_set(px.ravel())
-        image.pack()
-        image["airmass_role"] = "sun columns"
+        image = _data_image(SUN_COLUMNS_NAME, SUN_TABLE_ROLES[0], rgb, created)
         image["airmass_constituents"] = ",".join(group)
         images.append(image)
+    ms_image = _data_image(SUN_MS_NAME, SUN_TABLE_ROLES[1], ms[0], created) if ms is not None else None
     return material.SunLighting(
         direction=light["direction"], irradiance_rgb=light["irradiance_top_rgb"],
         angular_radius=0.5 * math.radians(light["angular_diameter_deg"]), images=images, channel=channel,
         center=description["planet_center"], radius=description["planet_radius"],
-        top=description["atmosphere_top"])
+        top=description["atmosphere_top"],
+        extinction={c["name"]: [float(a) + float(b) for a, b in zip(c["scattering_rgb"], c["absorption_rgb"])]
+                    for c in description["constituents"]},
+        ms_image=ms_image, ms_mu_s_min=ms[1] if ms is not None else -1.0)
+
+
+def current_sun(context, choice):
+    """native.sun_light of the panel's sun now (main thread)."""
+    return native.sun_light(make_spec(context.scene.airmass), chapman=choice["chapman"])
 
 
 def set_material_sun(mat, light):
@@ -334,7 +373,7 @@ def _remove_old(objects):
         for m in mats:
             if m.users == 0:
                 images = [n.image for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage"
-                          and n.image is not None and n.image.get("airmass_role") == "sun columns"] \
+                          and n.image is not None and n.image.get("airmass_role") in SUN_TABLE_ROLES] \
                     if m.node_tree is not None else []
                 bpy.data.materials.remove(m)
                 for image in images:
@@ -464,13 +503,13 @@ class AnalyticPlan(Plan):
             raise SettingsError("Region 'Camera View' needs an active camera in the scene")
         self.albedo = None
         self.summary = None
+        self.sun_choice = sun_choice(s)
 
     def work(self, progress):
         scene = native.validate_scene(self.spec)
         self.albedo = float(scene["planet"]["ground_albedo"])
         description = native.analytic_density(self.spec, unit=self.unit_name)
-        sun = sun_inputs(self.settings, self.spec, description, self.unit_name) \
-            if self.settings.volume_lighting == "SUN_EMISSION" else None
+        sun = sun_inputs(self.sun_choice, self.spec, description, self.unit_name) if self.sun_choice else None
         return description, sun
 
     def finish(self, context, result):
@@ -485,11 +524,13 @@ class AnalyticPlan(Plan):
             constituents = description["constituents"]
 
             density_for = material.analytic_density(center, R, top_alt, constituents)
-            lighting = sun_lighting(description, sun[0], sun[1], created) if sun is not None else None
+            # The sun as it is now (it may have moved while the job ran).
+            lighting = sun_lighting(description, current_sun(context, self.sun_choice), sun[0], created, sun[1]) \
+                if sun is not None else None
             mat = created.add(build_material(VOLUME_NAME, constituents, density_for, phase_mixing=s.phase_mixing,
                                              sun=lighting))
             mat[ROLE] = "atmosphere"
-            mat["airmass_lighting"] = s.volume_lighting
+            mat["airmass_lighting"] = "SUN_EMISSION" if lighting is not None else "SCATTER"
             mat["airmass_planet_center"] = list(center)
             axis, theta = view_cap(context, s, description, self.unit_m)
             verts, faces = shell_geometry(center, axis, R * (1.0 - 1e-4), _circumscribe(top, theta), theta)
@@ -515,7 +556,8 @@ class AnalyticPlan(Plan):
         except Exception:
             created.remove_all()
             raise
-        notes += cutoff_notes(constituents, top_alt, self.unit_name)
+        if self.sun_choice is None:  # Volume Scatter: Cycles' closure cut-off applies to it
+            notes += cutoff_notes(constituents, top_alt, self.unit_name)
         self.summary = "Airmass analytic atmosphere: %d constituents, step %.3g %s%s" % (
             len(constituents), step, self.unit_name, ("; " + "; ".join(notes)) if notes else "")
 
@@ -603,7 +645,8 @@ class VdbPlan(Plan):
         self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
         self.max_dense_mb = s.max_dense_mb
         self.files = []
-        self.sun = None  # (sun light, columns' table) for the Analytic Sun
+        self.sun_choice = sun_choice(s)
+        self.sun = None  # (columns' table, multiple-scattering table) for the Analytic Sun
         self.written = None  # vdb_host.Written once the files are in place
         self.summary = None
 
@@ -615,8 +658,7 @@ class VdbPlan(Plan):
         scene = native.validate_scene(self.spec)
         albedo = float(scene["planet"]["ground_albedo"])
         description = native.analytic_density(self.spec, unit=self.unit_name)
-        self.sun = sun_inputs(self.settings, self.spec, description, self.unit_name) \
-            if self.settings.volume_lighting == "SUN_EMISSION" else None
+        self.sun = sun_inputs(self.sun_choice, self.spec, description, self.unit_name) if self.sun_choice else None
         try:
             written = vdb_host.write_volume(self.spec, self.folder, self.stem, progress=progress, **self.options())
             self.written = written
@@ -658,11 +700,12 @@ class VdbPlan(Plan):
             grid_names = sorted({g.name for v in volumes for g in v.grids})
             constituents = self._constituents(description, metadata, grid_names)
 
-            lighting = sun_lighting(description, self.sun[0], self.sun[1], created) if self.sun is not None else None
+            lighting = sun_lighting(description, current_sun(context, self.sun_choice), self.sun[0], created,
+                                    self.sun[1]) if self.sun is not None else None
             mat = created.add(build_material(VOLUME_NAME, constituents, material.grid_density(),
                                              phase_mixing=s.phase_mixing, sun=lighting))
             mat[ROLE] = "atmosphere"
-            mat["airmass_lighting"] = s.volume_lighting
+            mat["airmass_lighting"] = "SUN_EMISSION" if lighting is not None else "SCATTER"
             mat["airmass_planet_center"] = list(float(x) for x in description["planet_center"])
             new = []
             for i, vol in enumerate(volumes):

@@ -155,6 +155,22 @@ std::size_t grid_index(const char* name, const airmass::VdbLayout& layout) {
                                                  "\": not a grid of this volume (its grids: " + names + ")");
 }
 
+// The sun tables' sizes and the caller's buffer, checked before any work (a wrong buffer is refused
+// at once, not after seconds of a large table): VdbError for a size outside [2, 4096] (the library's
+// own check), AbiError for a NULL or wrongly sized buffer.
+void check_sun_table_buffer(const char* what, int32_t mu_size, int32_t r_size, const float* values,
+                            size_t float_count, std::size_t per_texel, const char* per_texel_name) {
+    for (const auto& [name, n] : {std::pair<const char*, int32_t>{"mu_size", mu_size}, {"r_size", r_size}})
+        if (n < 2 || n > 4096)
+            throw airmass::VdbError(std::string(what) + ": " + name + " = " + std::to_string(n) + ": must be in [2, 4096]");
+    if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
+    const std::size_t expected = std::size_t(mu_size) * std::size_t(r_size) * per_texel;
+    if (float_count != expected)
+        throw AbiError(AIRMASS_INVALID_ARGUMENT, "float_count = " + std::to_string(float_count) +
+                                                     ": must be r_size × mu_size × " + per_texel_name + " = " +
+                                                     std::to_string(expected));
+}
+
 }  // namespace
 }  // namespace airmass::capi
 
@@ -259,14 +275,25 @@ int32_t airmass_sun_column_table(const airmass_scene_spec* spec, const airmass_v
     return guarded(message, message_size, [&] {
         const airmass::VdbOptions vdb = vdb_options_from(options);
         const Scene scene = build_scene(spec);
+        const std::size_t count = airmass::resolve_vdb_layout(scene, vdb).constituents.size();
+        check_sun_table_buffer("sun column table", mu_size, r_size, values, float_count, count,
+                               (std::to_string(count) + " constituents").c_str());
         const airmass::SunColumnTable table = airmass::sun_column_table(scene, vdb, mu_size, r_size);
-        if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
-        if (float_count != table.mass.size())
-            throw AbiError(AIRMASS_INVALID_ARGUMENT,
-                           "float_count = " + std::to_string(float_count) + ": must be r_size × mu_size × " +
-                               std::to_string(table.names.size()) + " constituents = " +
-                               std::to_string(table.mass.size()));
         std::copy(table.mass.begin(), table.mass.end(), values);
+    });
+}
+
+int32_t airmass_sun_ms_table(const airmass_scene_spec* spec, const airmass_vdb_options* options, int32_t mu_size,
+                             int32_t r_size, float* values, size_t float_count, double* mu_s_min, char* message,
+                             size_t message_size) {
+    return guarded(message, message_size, [&] {
+        const airmass::VdbOptions vdb = vdb_options_from(options);
+        if (!mu_s_min) throw AbiError(AIRMASS_INVALID_ARGUMENT, "mu_s_min: NULL pointer");
+        const Scene scene = build_scene(spec);
+        check_sun_table_buffer("sun multiple-scattering table", mu_size, r_size, values, float_count, 3, "3");
+        const airmass::SunMsTable table = airmass::sun_ms_table(scene, vdb, mu_size, r_size);
+        std::copy(table.psi.begin(), table.psi.end(), values);
+        *mu_s_min = table.mu_s_min;
     });
 }
 

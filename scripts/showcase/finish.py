@@ -116,7 +116,8 @@ def caption_lines(sm):
     total = sum(sm["render_seconds"])
     what = {"terrain_sky": "sky texture + Sun lamp, no volume"}.get(
         sm["scene"], "%s volume%s%s" % ("VDB" if sm["scene"].endswith("vdb") else "analytic",
-                                        {"SUN_EMISSION": ", Analytic Sun", "SCATTER": ", Volume Scatter"}.get(
+                                        {"SUN_EMISSION": ", Analytic Sun" + (" + multiple scattering" if a.get(
+                                            "volume_multiple") else ""), "SCATTER": ", Volume Scatter"}.get(
                                             a.get("volume_lighting"), ""),
                                         ", step %.3g km" % a["step_km"]))
     line1 = "%s  —  sun %.1f°, %s" % (sm["title"], st["sun_elevation_deg"], what)

@@ -411,6 +411,16 @@ def test_sun_column_table_vs_quadrature():
                  native.SETTINGS_ERROR, "mu_size = 1")
     expect_error(lambda: native.sun_column_table(s, len(cons) + 1, mu_size=8, r_size=8, unit="km"),
                  native.INVALID_ARGUMENT, "float_count")
+    # The multiple scattering of the same lighting: Hillaire's isotropic Ψ per unit irradiance at the
+    # exporter's RGB wavelengths; finite, non-negative, 0 toward the night end of its sun axis,
+    # largest for a high sun, bluer (440 nm) than red (680 nm) by day at the ground.
+    psi, mu_lo = native.sun_ms_table(s, mu_size=16, r_size=8, unit="km")
+    assert psi.shape == (8, 16, 3) and np.isfinite(psi).all() and (psi >= 0).all(), psi
+    assert -1.0 < mu_lo < 0.0, mu_lo
+    assert psi[0, 0].max() < 1e-6 * psi[0, -1].max(), (psi[0, 0], psi[0, -1])
+    assert psi[0, -1, 2] > psi[0, -1, 0] > 0.0, psi[0, -1]
+    expect_error(lambda: native.sun_ms_table(s, mu_size=4097, r_size=8, unit="km"), native.SETTINGS_ERROR,
+                 "mu_size = 4097")
 
 
 def main():

@@ -376,6 +376,19 @@ int main(int argc, char** argv) {
         const int32_t s3 = airmass_sun_column_table(&cs, &co, 8, 4, columns, 95, msg, sizeof msg);
         check(s3 == AIRMASS_INVALID_ARGUMENT && contains(msg, "float_count"), "sun columns: a short buffer refused",
               msg);
+        double mu_s_min = 0.0;
+        float psi[8 * 4 * 3];
+        const int32_t s4 = airmass_sun_ms_table(&cs, &co, 8, 4, psi, 8 * 4 * 3, &mu_s_min, msg, sizeof msg);
+        int finite = 1;
+        for (int k = 0; k < 8 * 4 * 3; ++k) finite = finite && isfinite(psi[k]) && psi[k] >= 0.0f;
+        snprintf(detail, sizeof detail, "status %d %s, mu_s_min %g, psi at the ground, sun up: %g %g %g", (int)s4, msg,
+                 mu_s_min, psi[7 * 3], psi[7 * 3 + 1], psi[7 * 3 + 2]);
+        check(s4 == AIRMASS_OK && finite && mu_s_min > -1.0 && mu_s_min < 0.0 && psi[7 * 3 + 2] > psi[7 * 3] &&
+                  psi[7 * 3] > 0.0f,
+              "sun multiple scattering: finite, non-negative, bluer than red at the ground by day", detail);
+        const int32_t s5 = airmass_sun_ms_table(&cs, &co, 8, 4, psi, 8 * 4 * 3, NULL, msg, sizeof msg);
+        check(s5 == AIRMASS_INVALID_ARGUMENT && contains(msg, "mu_s_min"), "sun multiple scattering: NULL mu_s_min",
+              msg);
     }
 
     /* ---- the sun lamp ---- */

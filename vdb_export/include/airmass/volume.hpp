@@ -412,6 +412,20 @@ struct SunColumnTable {
 // mu_size, r_size in [2, 4096] (VdbError naming them otherwise).
 SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size);
 
+// The multiple scattering of the same lighting: Hillaire's (2020) isotropic Ψ(altitude, sun zenith)
+// (multiple_scattering.hpp, MsMode::isotropic_lut: every order ≥ 2, the sunlit ground included)
+// per unit top-of-atmosphere irradiance, sr⁻¹, at the exporter's three RGB wavelengths
+// (channel c = layout.rgb_wavelengths_nm[c], the renderer's RGB model of render.hpp). A point
+// adds E_top,c · Ψ_c · Σ_j σs_j,c ρ_j per unit length, in the planet's shadow too. Texel (i, j):
+// μs = mu_s_min + (1 − mu_s_min) · i/(mu_size − 1) (below mu_s_min no light is tabulated),
+// x_r = j/(r_size − 1) as sun_column_table.
+struct SunMsTable {
+    int mu_size = 0, r_size = 0;
+    double mu_s_min = -1.0;
+    std::vector<float> psi;  // [(j · mu_size + i) · 3 + c]
+};
+SunMsTable sun_ms_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size);
+
 // A POV-Ray 3.7 include declaring, per active constituent, the density as a function
 // of POV-Ray's (x, y, z) (y up: POV (x, y, z) = airmass (x, z, y), the planet centre
 // at <0, −R, 0> for PlanetOrigin::surface), its maximum, and its RGB coefficients.

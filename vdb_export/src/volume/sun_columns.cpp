@@ -9,6 +9,7 @@
 #include <string>
 
 #include "airmass/atmosphere.hpp"
+#include "airmass/multiple_scattering.hpp"
 #include "airmass/optical_depth.hpp"
 #include "airmass/volume.hpp"
 
@@ -67,6 +68,47 @@ SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, i
             previous = mass;
             float* out = table.mass.data() + (static_cast<std::size_t>(j) * mu_size + i) * nc;
             for (std::size_t k = 0; k < nc; ++k) out[k] = static_cast<float>(mass[from[k]] / L);
+        }
+    }
+    return table;
+}
+
+SunMsTable sun_ms_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size) {
+    if (mu_size < 2 || mu_size > 4096)
+        throw VdbError("sun multiple-scattering table: mu_size = " + std::to_string(mu_size) + ": must be in [2, 4096]");
+    if (r_size < 2 || r_size > 4096)
+        throw VdbError("sun multiple-scattering table: r_size = " + std::to_string(r_size) + ": must be in [2, 4096]");
+    const VdbLayout layout = resolve_vdb_layout(scene, options);
+    // The renderer's RGB model (render.hpp renderer_rgb): channel c is wavelength c.
+    const Atmosphere atmosphere = compile_atmosphere(scene, layout.rgb_wavelengths_nm);
+    MsSettings settings;
+    settings.mode = MsMode::isotropic_lut;
+    const MultipleScattering ms = precompute_multiple_scattering(atmosphere, settings);
+
+    SunMsTable table;
+    table.mu_size = mu_size;
+    table.r_size = r_size;
+    table.mu_s_min = ms.grid.mu_s_min;
+    table.psi.assign(static_cast<std::size_t>(mu_size) * static_cast<std::size_t>(r_size) * 3, 0.0f);
+    std::size_t scatterer = atmosphere.constituents.size();
+    for (std::size_t i = 0; i < atmosphere.constituents.size(); ++i)
+        if (atmosphere.constituents[i].scatters) scatterer = std::min(scatterer, i);
+    if (scatterer == atmosphere.constituents.size()) return table;  // nothing scatters: Ψ = 0
+
+    const double L = layout.metres_per_unit;
+    const double R = layout.planet_radius, top = layout.atmosphere_top;
+    const double H = std::sqrt(std::max(0.0, top * top - R * R));
+    double psi[3];
+    for (int j = 0; j < r_size; ++j) {
+        const double rho = H * double(j) / (r_size - 1);
+        const double altitude_m = (std::sqrt(rho * rho + R * R) - R) * L;
+        for (int i = 0; i < mu_size; ++i) {
+            MsPoint point;
+            point.altitude_m = altitude_m;
+            point.mu_s = table.mu_s_min + (1.0 - table.mu_s_min) * double(i) / (mu_size - 1);
+            ms_phase_radiance(ms, scatterer, point, std::span<double>(psi, 3));
+            float* out = table.psi.data() + (static_cast<std::size_t>(j) * mu_size + i) * 3;
+            for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(std::max(0.0, psi[c]));
         }
     }
     return table;
