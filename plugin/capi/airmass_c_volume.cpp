@@ -160,9 +160,7 @@ std::size_t grid_index(const char* name, const airmass::VdbLayout& layout) {
 // own check), AbiError for a NULL or wrongly sized buffer.
 void check_sun_table_buffer(const char* what, int32_t mu_size, int32_t r_size, const float* values,
                             size_t float_count, std::size_t per_texel, const char* per_texel_name) {
-    for (const auto& [name, n] : {std::pair<const char*, int32_t>{"mu_size", mu_size}, {"r_size", r_size}})
-        if (n < 2 || n > 4096)
-            throw airmass::VdbError(std::string(what) + ": " + name + " = " + std::to_string(n) + ": must be in [2, 4096]");
+    airmass::check_sun_table_sizes(what, mu_size, r_size);
     if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
     const std::size_t expected = std::size_t(mu_size) * std::size_t(r_size) * per_texel;
     if (float_count != expected)

@@ -398,6 +398,10 @@ std::string analytic_density_json(const Scene& scene, const VdbOptions& options)
 // (d the distance to the top along the ray, d_min = top − r straight up, d_max = ρ + H grazing
 // the ground). A renderer reads it at u = (x_mu·(mu_size − 1) + 0.5)/mu_size and likewise v, and
 // sets the sun to 0 below the horizon (mu < −ρ/r).
+// The tables' sizes: mu_size and r_size in [2, 4096], else VdbError naming them ("<what>: mu_size = 1:
+// must be in [2, 4096]").
+void check_sun_table_sizes(std::string_view what, int mu_size, int r_size);
+
 struct SunColumnRay {
     double r = 0;   // radius of the point, unit
     double mu = 1;  // cosine of the sun's zenith angle there

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "airmass/atmosphere.hpp"
 #include "airmass/multiple_scattering.hpp"
@@ -14,6 +16,12 @@
 #include "airmass/volume.hpp"
 
 namespace airmass {
+
+void check_sun_table_sizes(std::string_view what, int mu_size, int r_size) {
+    for (const auto& [name, n] : {std::pair<const char*, int>{"mu_size", mu_size}, {"r_size", r_size}})
+        if (n < 2 || n > 4096)
+            throw VdbError(std::string(what) + ": " + name + " = " + std::to_string(n) + ": must be in [2, 4096]");
+}
 
 SunColumnRay sun_column_ray(double planet_radius, double atmosphere_top, double x_mu, double x_r) {
     const double R = planet_radius, top = atmosphere_top;
@@ -27,10 +35,7 @@ SunColumnRay sun_column_ray(double planet_radius, double atmosphere_top, double 
 }
 
 SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size) {
-    if (mu_size < 2 || mu_size > 4096)
-        throw VdbError("sun column table: mu_size = " + std::to_string(mu_size) + ": must be in [2, 4096]");
-    if (r_size < 2 || r_size > 4096)
-        throw VdbError("sun column table: r_size = " + std::to_string(r_size) + ": must be in [2, 4096]");
+    check_sun_table_sizes("sun column table", mu_size, r_size);
     const VdbLayout layout = resolve_vdb_layout(scene, options);
     const Atmosphere atmosphere = compile_atmosphere(scene, layout.rgb_wavelengths_nm);
     const std::size_t n_atm = atmosphere.constituents.size();
@@ -74,10 +79,7 @@ SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, i
 }
 
 SunMsTable sun_ms_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size) {
-    if (mu_size < 2 || mu_size > 4096)
-        throw VdbError("sun multiple-scattering table: mu_size = " + std::to_string(mu_size) + ": must be in [2, 4096]");
-    if (r_size < 2 || r_size > 4096)
-        throw VdbError("sun multiple-scattering table: r_size = " + std::to_string(r_size) + ": must be in [2, 4096]");
+    check_sun_table_sizes("sun multiple-scattering table", mu_size, r_size);
     const VdbLayout layout = resolve_vdb_layout(scene, options);
     // The renderer's RGB model (render.hpp renderer_rgb): channel c is wavelength c.
     const Atmosphere atmosphere = compile_atmosphere(scene, layout.rgb_wavelengths_nm);
