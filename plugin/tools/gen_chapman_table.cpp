@@ -77,7 +77,34 @@ std::vector<double> make_coefficients(const std::vector<double>& nodes, int n_w,
     return coef;
 }
 
-int check(const AirmassTable& table) {
+// Ch∥ per cell of the x0-bits table (chapman_airmass.hpp, airmass_parallel_cell): the cubic in τ
+// through the exact values at the cell's ends (shared with the neighbours, so the table is
+// continuous) and at a quarter and three quarters of it.
+std::vector<double> make_parallel() {
+    constexpr double width = 1.0 / (1 << kParallelCellBits);  // of τ
+    static constexpr double nodes[4] = {0.0, 0.25 * width, 0.75 * width, width};
+    std::vector<double> coef(static_cast<size_t>(kParallelCells) * 4);
+    for (int k = 0; k < kParallelCells; ++k) {
+        const int e = kParallelExpLo + (k >> kParallelCellBits), sub = k & ((1 << kParallelCellBits) - 1);
+        long double a[4][5];
+        for (int r = 0; r < 4; ++r) {
+            const double x0 = std::ldexp(1.0 + sub * width + nodes[r], e);
+            long double p = 1;
+            for (int c = 0; c < 4; ++c, p *= nodes[r]) a[r][c] = p;
+            a[r][4] = chapman_upper_exact(x0, 0.0);
+        }
+        for (int c = 0; c < 4; ++c)  // Gauss–Jordan (the nodes' Vandermonde matrix is well conditioned)
+            for (int r = 0; r < 4; ++r)
+                if (r != c) {
+                    const long double f = a[r][c] / a[c][c];
+                    for (int q = c; q < 5; ++q) a[r][q] -= f * a[c][q];
+                }
+        for (int c = 0; c < 4; ++c) coef[4 * static_cast<size_t>(k) + c] = static_cast<double>(a[c][4] / a[c][c]);
+    }
+    return coef;
+}
+
+int check(const AirmassTable& table, const double* parallel) {
     double max_up = 0, max_h = 0, at_x = 0, at_mu = 0, at_hx = 0;
     const int nx = 400, nmu = 400;
     for (int a = 0; a <= nx; ++a) {
@@ -99,6 +126,15 @@ int check(const AirmassTable& table) {
     }
     std::printf("max rel err upper %.3e at x=%g mu=%g; horizontal %.3e at x=%g\n", max_up, at_x, at_mu, max_h,
                 at_hx);
+    // The Ch∥ table, x0 from 0 over the table's octaves (the fast paths take x0 < 2^40).
+    double max_p = 0, at_px = 0;
+    for (int a = 0; a <= 20000; ++a) {
+        const double x0 = a == 0 ? 0.0 : std::pow(2.0, -40.0 + 80.0 * a / 20000);
+        if (!(x0 < kParallelEnd)) break;
+        const double e = std::abs(airmass_parallel(parallel, x0) / chapman_upper_exact(x0, 0.0) - 1.0);
+        if (e > max_p) { max_p = e; at_px = x0; }
+    }
+    std::printf("max rel err Ch_par table %.3e at x0=%g (x0 in [0, 2^40))\n", max_p, at_px);
     return 0;
 }
 
@@ -119,7 +155,8 @@ int main(int argc, char** argv) {
     if (n_w < 4 || n_v < 4) { std::fprintf(stderr, "gen_chapman_table: --w and --v must be >= 4\n"); return 2; }
     const std::vector<double> nodes = make_table(n_w, n_v);
     const std::vector<double> t = make_coefficients(nodes, n_w, n_v);
-    if (do_check) check(AirmassTable{t.data(), n_w, n_v});
+    const std::vector<double> parallel = make_parallel();
+    if (do_check) check(AirmassTable{t.data(), n_w, n_v}, parallel.data());
     if (!out.empty()) {
         const std::string tmp = out + ".tmp";
         {
@@ -132,8 +169,15 @@ int main(int argc, char** argv) {
                 std::snprintf(buf, sizeof buf, "%.17g,%s", t[k], (k + 1) % 4 == 0 ? "\n" : " ");
                 f << buf;
             }
+            f << "};\n// Ch∥ by the bits of x0 (airmass_parallel_cell), kParallelCells cells × 4.\n"
+                 "alignas(64) constexpr double kParallel[kParallelCells * 4] = {\n";
+            for (size_t k = 0; k < parallel.size(); ++k) {
+                std::snprintf(buf, sizeof buf, "%.17g,%s", parallel[k], (k + 1) % 4 == 0 ? "\n" : " ");
+                f << buf;
+            }
             f << "};\n}  // namespace\n\nconst AirmassTable& airmass_table() {\n"
-                 "    static constexpr AirmassTable table{kTable, kW, kV};\n    return table;\n}\n\n}  // namespace airmass::detail\n";
+                 "    static constexpr AirmassTable table{kTable, kW, kV};\n    return table;\n}\n\n"
+                 "const double* airmass_parallel_table() { return kParallel; }\n\n}  // namespace airmass::detail\n";
             if (!f) { std::fprintf(stderr, "gen_chapman_table: cannot write %s\n", tmp.c_str()); return 1; }
         }
         std::filesystem::rename(tmp, out);

@@ -55,7 +55,7 @@ constexpr std::array<ChapmanMethodInfo, 8> kMethods{{
 // two-operand SSE2 code, ~20 % of the scalar time (issue 14 goal 5).
 template <class T>
 AIRMASS_TARGET_AVX2_FMA ScaledChapman<T> airmass_scaled_avx2_fma(T x, T mu, T s) {
-    return detail::airmass_scaled_fast<T>(detail::airmass_table(), detail::airmass_column0(), x, mu, s);
+    return detail::airmass_scaled_fast<T>(detail::airmass_table(), detail::airmass_parallel_table(), x, mu, s);
 }
 #endif
 
@@ -73,7 +73,7 @@ ScaledChapman<T> scaled_one(ChapmanMethod method, T x, T mu, T s) {
 #if AIRMASS_SIMD_DISPATCH
             if (simd_target() == SimdTarget::avx2_fma) return airmass_scaled_avx2_fma<T>(x, mu, s);
 #endif
-            return airmass_scaled_fast<T>(airmass_table(), airmass_column0(), x, mu, s);
+            return airmass_scaled_fast<T>(airmass_table(), airmass_parallel_table(), x, mu, s);
         case ChapmanMethod::schuler2012: return chapman_schuler2012(x, mu, s);
         case ChapmanMethod::schuler2012_full: return chapman_schuler2012_full(x, mu, s);
         case ChapmanMethod::schuler2012_rigged: return chapman_schuler2012_rigged<T, false>(x, mu, s);
@@ -98,10 +98,10 @@ template <class T, ChapmanMethod M, class X, class Out>
     if constexpr (M == ChapmanMethod::airmass) {
         const auto& table = detail::airmass_table();
 #if AIRMASS_CHAPMAN_V4_BATCH
-        airmass_v4::baseline::airmass_batch<T>(table, detail::airmass_column0(), x_of, c, s, out);
+        airmass_v4::baseline::airmass_batch<T>(table, detail::airmass_parallel_table(), x_of, c, s, out);
 #else
-        const double* column0 = detail::airmass_column0();
-        for (size_t i = 0; i < c.size(); ++i) out(i, detail::airmass_scaled_fast<T>(table, column0, x_of(i), c[i], s[i]));
+        const double* parallel = detail::airmass_parallel_table();
+        for (size_t i = 0; i < c.size(); ++i) out(i, detail::airmass_scaled_fast<T>(table, parallel, x_of(i), c[i], s[i]));
 #endif
     } else {
         const size_t n = c.size();
@@ -157,19 +157,6 @@ void batch_dispatch(ChapmanMethod method, size_t n, X x, std::span<const T> c, s
 }
 
 }  // namespace
-
-namespace detail {
-const double* airmass_column0() {
-    static const std::vector<double> column = [] {
-        const AirmassTable& table = airmass_table();
-        std::vector<double> c(static_cast<size_t>(table.n_w - 1) * 4);
-        for (int i = 0; i < table.n_w - 1; ++i)
-            for (int a = 0; a < 4; ++a) c[4 * i + a] = table.coefficients[static_cast<size_t>(i) * (table.n_v - 1) * 16 + 4 * a];
-        return c;
-    }();  // immutable once built (thread-safe initialisation)
-    return column.data();
-}
-}  // namespace detail
 
 std::span<const ChapmanMethodInfo> chapman_methods() { return kMethods; }
 

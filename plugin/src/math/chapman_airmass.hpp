@@ -199,22 +199,54 @@ typedef double AirmassV2 __attribute__((vector_size(16)));
 }
 #endif
 
-// ... and the v = 0 column at t0 in cell i0 along w, from the column's own copy (airmass_column0).
-inline double airmass_read_column0(const double* column0, int i0, double t0) {
-    const double* c = column0 + 4 * i0;
-    return (c[0] + c[1] * t0) + (c[2] + c[3] * t0) * (t0 * t0);
+// Ch∥(x0) below the horizon, from a table of its own indexed by the bits of x0 (no square root, no
+// division): x0 = 2^e (1 + f), the cell is e and the top kParallelCellBits bits of f (contiguous
+// over octaves: the bits above bit kParallelShift, less the table's first), the local coordinate
+// τ ∈ [0, 2^−kParallelCellBits) the rest of f, and the cell holds the cubic in τ of Ch∥ over it,
+// through the exact quadrature at its ends and at a quarter and three quarters of it (continuous
+// from cell to cell; plugin/tools/gen_chapman_table.cpp, whose --check prints its error).
+// Octaves e ∈ [kParallelExpLo, kParallelExpHi]. Below 2^kParallelExpLo, x0 is raised to it:
+// Ch∥(x0) = 1 + x0 + O(x0² ln x0), a relative change ≤ 2^kParallelExpLo ≈ 9.3e-10. From
+// 2^(kParallelExpHi + 1) ≈ 1.1e12 on the fast paths send the lane to the careful one.
+constexpr int kParallelCellBits = 4;   // 16 cells per octave
+constexpr int kParallelExpLo = -30;    // x0 < 2^−30: as 2^−30
+constexpr int kParallelExpHi = 39;     // the last octave in the table, [2^39, 2^40)
+constexpr int kParallelCells = (kParallelExpHi - kParallelExpLo + 1) << kParallelCellBits;
+constexpr int kParallelShift = 52 - kParallelCellBits;
+constexpr double kParallelLo = 0x1p-30;
+constexpr double kParallelEnd = 0x1p40;                  // fast paths: x0 < kParallelEnd
+constexpr double kParallelHi = 0x1.fffffffffffffp39;     // the largest double below it
+static_assert(kParallelExpLo == -30 && kParallelExpHi == 39);
+
+// The cell (as the offset of its 4 coefficients) and τ of x0, clamped to [kParallelLo, kParallelHi]
+// (NaN gives kParallelLo): any x0 gives a cell inside the table.
+inline int airmass_parallel_cell(double x0, double& tau) {
+    x0 = x0 >= kParallelLo ? x0 : kParallelLo;
+    x0 = x0 <= kParallelHi ? x0 : kParallelHi;
+    const unsigned long long bits = std::bit_cast<unsigned long long>(x0);
+    tau = std::bit_cast<double>((bits & ((1ull << kParallelShift) - 1)) | 0x3FF0000000000000ull) - 1.0;
+    return static_cast<int>((bits >> kParallelShift) - (static_cast<unsigned long long>(1023 + kParallelExpLo) << kParallelCellBits)) * 4;
 }
 
-// The v = 0 column's cubics contiguous, 4 doubles per cell along w (c[0], c[4], c[8], c[12] of cell
-// (i, 0)): 2 KB that stay in L1. In the table the column's cells are (n_v − 1) · 128 bytes = 8 KB
-// apart, so all of them fall in one set of a 48 KB 12-way L1 and evict each other; the reads of
-// Ch∥(x0) below the horizon missed L1 every time. Built once from the table (chapman.cpp).
-const double* airmass_column0();
+inline double airmass_read_parallel(const double* parallel, int off, double tau) {
+    const double* c = parallel + off;
+    return (c[0] + c[1] * tau) + (c[2] + c[3] * tau) * (tau * tau);
+}
+
+// Ch∥(x0) from the table, for x0 ∈ [0, kParallelEnd).
+inline double airmass_parallel(const double* parallel, double x0) {
+    double tau;
+    const int off = airmass_parallel_cell(x0, tau);
+    return airmass_read_parallel(parallel, off, tau);
+}
+
+// The built-in Ch∥ table: kParallelCells cells × 4 coefficients (generated chapman_airmass_table.cpp).
+const double* airmass_parallel_table();
 
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square
 // root, three independent divisions, one table read); below, also Ch∥(x0) and e^(−d).
 template <class T>
-inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const double* column0, T x_in, T mu_in, T s_in) {
+inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const double* parallel, T x_in, T mu_in, T s_in) {
     const double x = x_in, mu = mu_in;
     if (mu >= 0.0) {
         const double sx = std::sqrt(x);
@@ -236,32 +268,32 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
         const double r = airmass_read(table.coefficients, (iw * (table.n_v - 1) + iv) * 16, sw - iw, sv - iv);
         return {static_cast<T>(base * r), T(0)};
     }
-    // Below: the same with m = −mu, and Ch∥(x0) and d; again independent divisions (five).
+    // Below: the same with m = −mu, Ch∥(x0) from its own table and d; again independent divisions (four).
     const double s = s_in;
-    // Beyond x ~ 1e150 (and for negative or NaN x) the careful path, as the batch kernels do.
-    if (!(x >= 0.0 && x <= 1e150) || !(s >= 0.0)) return table.scaled(x_in, mu_in, s_in);
+    // Beyond x ~ 1e150, x sin chi beyond the Ch∥ table (and for negative or NaN x) the careful path, as
+    // the batch kernels do.
+    const double x0 = x * s;
+    if (!(x >= 0.0 && x <= 1e150) || !(s >= 0.0) || !(x0 < kParallelEnd)) return table.scaled(x_in, mu_in, s_in);
     const double m = -mu;
-    const double sx = std::sqrt(x), sx0 = std::sqrt(x * s);
+    const double sx = std::sqrt(x);
     const double Y = sx * 0.70710678118654752;
     const double c = airmass_base_horizontal(sx);
     const double a = 1.0 + sx, b = 1.0 + m * Y, q = (c - 1.0) * m + 1.0;
-    const double a0 = 1.0 + sx0, sp = 1.0 + s;
+    const double sp = 1.0 + s;
     const double w = 1.0 / a;
     const double v_raw = m * (1.0 + Y) / b;
     const double v = v_raw < 1.0 ? v_raw : 1.0;
     const double base = c / q;
-    const double w0 = 1.0 / a0;
-    const double d = x * m * m / sp;  // not after √(x s): the exp's chain starts at once
+    const double d = x * m * m / sp;
     const int n_w = table.n_w, n_v = table.n_v;
-    const double sw = w * (n_w - 1), sv = v * (n_v - 1), sw0 = w0 * (n_w - 1);
-    int iw = static_cast<int>(sw), iv = static_cast<int>(sv), iw0 = static_cast<int>(sw0);
+    const double sw = w * (n_w - 1), sv = v * (n_v - 1);
+    int iw = static_cast<int>(sw), iv = static_cast<int>(sv);
     iw = iw < n_w - 2 ? iw : n_w - 2;
     iv = iv < n_v - 2 ? iv : n_v - 2;
-    iw0 = iw0 < n_w - 2 ? iw0 : n_w - 2;
     const double r = airmass_read(table.coefficients, (iw * (n_v - 1) + iv) * 16, sw - iw, sv - iv);
-    const double h = airmass_read_column0(column0, iw0, sw0 - iw0);
+    const double h = airmass_parallel(parallel, x0);
     // The reflection identity in scaled form: mantissa = 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d).
-    return {static_cast<T>(2.0 * airmass_base_horizontal(sx0) * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
+    return {static_cast<T>(2.0 * h - base * r * airmass_exp_neg(d)), static_cast<T>(d)};
 }
 
 // Table coordinates → (x, mu), for the generator. w ∈ (0, 1], v ∈ [0, 1].

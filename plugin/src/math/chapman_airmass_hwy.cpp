@@ -105,7 +105,7 @@ struct Chunk {
     // B R e^(−d) (−B R above).
     HWY_ALIGN double x[4], mu[4], s[4];
     HWY_ALIGN double t0[kLanes], factor0[kLanes], log_scale[kLanes];
-    HWY_ALIGN int32_t off0[kLanes];
+    HWY_ALIGN int64_t off0[kLanes];
     uint8_t need[kBlocks], careful[kBlocks];
     HWY_ALIGN double qx[kLanes], qmu[kLanes], qd[kLanes], product[kLanes];
     bool below[kBlocks];
@@ -154,15 +154,13 @@ HWY_INLINE V read(const double* coefficients, const int32_t* o, const double* t,
     return hn::MulAdd(hn::MulAdd(hn::MulAdd(C3, u, C2), u, C1), u, C0);
 }
 
-// ... and the v = 0 column (u = 0), c[0] + c[4] t + c[8] t² + c[12] t³, from the column's own
-// copy (airmass_column0: the four per cell contiguous, in L1), o[k] = 4 · cell: one load per lane,
-// a transpose and Estrin in t on all lanes. (Per lane in scalars, with the four results stored
-// and reloaded as a vector, was ~0.5 ns more per evaluation below the horizon, bench_chapman.)
-HWY_INLINE V read_column0(const double* column0, const int32_t* o, V t) {
+// ... and Ch∥'s cubics (airmass_parallel_table, 16 KB: in L1) at four lanes' cells, o[k] = the
+// cell's offset: one load per lane, a transpose and Estrin in t on all lanes.
+HWY_INLINE V read_parallel(const double* parallel, const int64_t* o, V t) {
     const DD dd;
     V C0, C1, C2, C3;
-    transpose4(hn::LoadU(dd, column0 + o[0]), hn::LoadU(dd, column0 + o[1]), hn::LoadU(dd, column0 + o[2]),
-               hn::LoadU(dd, column0 + o[3]), C0, C1, C2, C3);
+    transpose4(hn::LoadU(dd, parallel + o[0]), hn::LoadU(dd, parallel + o[1]), hn::LoadU(dd, parallel + o[2]),
+               hn::LoadU(dd, parallel + o[3]), C0, C1, C2, C3);
     return hn::MulAdd(hn::MulAdd(C3, t, C2), hn::Mul(t, t), hn::MulAdd(C1, t, C0));
 }
 
@@ -223,34 +221,38 @@ HWY_INLINE V stage_b(const AirmassTable& table, const Chunk& ch, size_t j) {
 //
 // Part one of block j: stores t0, off0, 2 c0 (0 above or careful) and d (0 above), returns the
 // lanes that need B R and sets the careful lanes' bits (x > 1e150, NaN: the careful scalar path).
-HWY_INLINE void part1(const AirmassTable& table, V x, V mu, V s, Chunk& ch, size_t j) {
+HWY_INLINE V part1(V x, V mu, V s, Chunk& ch, size_t j) {
     const DD dd;
+    const hn::RebindToSigned<DD> di;
+    const hn::RebindToUnsigned<DD> du;
     const size_t l = 4 * j;
     const V one = hn::Set(dd, 1.0), zero = hn::Zero(dd);
     const M below = hn::Lt(mu, zero);
+    // Ch∥(x0)'s cell from the bits of x0 (airmass_parallel_cell), clamped: any x0, also of careful or
+    // above-horizon lanes, gives a cell inside the table (NaN: vmaxpd returns its second operand).
+    const V x0 = hn::Mul(x, s);
     const M careful = hn::Or(hn::Not(hn::And(hn::Le(x, hn::Set(dd, 1e150)), hn::Le(hn::Abs(mu), one))),
-                             hn::AndNot(hn::Ge(s, zero), below));
+                             hn::AndNot(hn::And(hn::Ge(s, zero), hn::Lt(x0, hn::Set(dd, detail::kParallelEnd))), below));
     const M fast_below = hn::AndNot(careful, below);
-    const V sp = hn::Add(one, s);
-    const V sx0 = hn::Sqrt(hn::Mul(x, s));
-    const V a0 = hn::Add(one, sx0);
-    const V inv = hn::Div(one, hn::Mul(a0, sp));
-    V t0;
-    const V iw0 = cell(hn::IfThenElseZero(fast_below, hn::Mul(hn::Mul(sp, inv), hn::Set(dd, double(table.n_w - 1)))),
-                       table.n_w, t0);
+    const auto bits = hn::BitCast(du, hn::Min(hn::Max(x0, hn::Set(dd, detail::kParallelLo)), hn::Set(dd, detail::kParallelHi)));
+    const V t0 = hn::Sub(hn::BitCast(dd, hn::Or(hn::And(bits, hn::Set(du, (uint64_t(1) << detail::kParallelShift) - 1)),
+                                               hn::Set(du, uint64_t(0x3FF0000000000000)))),
+                         one);
     hn::Store(t0, dd, ch.t0 + l);
-    offsets(hn::Mul(iw0, hn::Set(dd, 4.0)), ch.off0 + l);
-    const V c0 = hn::MulAdd(hn::Set(dd, 1.2533141373155003), sx0, one);
-    hn::Store(hn::IfThenElseZero(fast_below, hn::Add(c0, c0)), dd, ch.factor0 + l);
-    const V d = hn::Mul(hn::Mul(hn::Mul(x, hn::Mul(mu, mu)), a0), inv);
+    const auto off = hn::Sub(hn::ShiftLeft<2>(hn::ShiftRight<detail::kParallelShift>(bits)),
+                             hn::Set(du, uint64_t(1023 + detail::kParallelExpLo) << (detail::kParallelCellBits + 2)));
+    hn::Store(hn::BitCast(di, off), di, ch.off0 + l);
+    hn::Store(hn::IfThenElseZero(fast_below, hn::Set(dd, 2.0)), dd, ch.factor0 + l);
+    const V d = hn::Div(hn::Mul(hn::Mul(x, mu), mu), hn::Add(one, s));
     hn::Store(hn::IfThenElseZero(fast_below, d), dd, ch.log_scale + l);
     const V e = hn::Sub(d, hn::Set(dd, 40.0));  // negligible: d − 40 > √x
     const M negligible = hn::And(below, hn::And(hn::Gt(e, zero), hn::Gt(hn::Mul(e, e), x)));
-    uint8_t bits[8] = {};
-    hn::StoreMaskBits(dd, careful, bits);
-    ch.careful[j] = bits[0];
-    hn::StoreMaskBits(dd, hn::Not(hn::Or(careful, negligible)), bits);
-    ch.need[j] = bits[0];
+    uint8_t bits8[8] = {};
+    hn::StoreMaskBits(dd, careful, bits8);
+    ch.careful[j] = bits8[0];
+    hn::StoreMaskBits(dd, hn::Not(hn::Or(careful, negligible)), bits8);
+    ch.need[j] = bits8[0];
+    return d;
 }
 
 // The partition's permutations of a block of four by its negligible lanes' bits m, as pairs of
@@ -327,7 +329,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             out2[i] = r.log_scale;
         }
     };
-    const double* column0 = detail::airmass_column0();
+    const double* parallel = detail::airmass_parallel_table();
     Chunk ch;
     // The expansion below reads whole blocks of products, some lanes of which no part two wrote
     // (they are masked off): defined values for them, once per call.
@@ -401,12 +403,8 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
         for (size_t j = 0; j < blocks; ++j) {
             V x, mu, s;
             load(j, x, mu, s);
-            part1(table, x, mu, s, ch, j);
-        }
-        for (size_t j = 0; j < blocks; ++j) {
-            V x, mu, s;
-            load(j, x, mu, s);
-            const V dq = hn::IfThenElse(hn::Lt(mu, hn::Zero(dd)), hn::Load(dd, ch.log_scale + 4 * j), hn::Set(dd, -1.0));
+            const V d = part1(x, mu, s, ch, j);
+            const V dq = hn::IfThenElse(hn::Lt(mu, hn::Zero(dd)), d, hn::Set(dd, -1.0));
             const unsigned need = ch.need[j];
             const auto to = permutation(kPartition.compress[need]);
             hn::StoreU(hn::TableLookupLanes(x, to), dd, ch.qx + n1);
@@ -433,7 +431,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
         for (size_t j = 0; j < blocks; ++j) {
             const unsigned need = ch.need[j];
             const V h = hn::Mul(hn::Load(dd, ch.factor0 + 4 * j),
-                                read_column0(column0, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j)));
+                                read_parallel(parallel, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j)));
             const V product = hn::TableLookupLanes(hn::LoadU(dd, ch.product + n1), permutation(kPartition.expand[need]));
             const V keep = hn::BitCast(dd, hn::Load(hn::Full256<uint64_t>(), kPartition.keep[need]));
             const V mantissa = hn::Sub(h, hn::And(product, keep));
