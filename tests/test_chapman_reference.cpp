@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "airmass/chapman.hpp"
 #include "chapman_reference.hpp"
@@ -50,6 +51,60 @@ TEST(ChapmanReference, HorizontalExactIsBessel) {
         const double bessel = x * std::exp(x) * std::cyl_bessel_k(1.0, x);
         EXPECT_NEAR(chapman_horizontal_exact(x) / bessel, 1.0, 1e-12) << "x=" << x;
     }
+}
+
+TEST(ChapmanReference, AirmassBelowHorizonIsTwiceBesselWhereTheReflectedTermVanishes) {
+    // Below the horizon the mantissa is 2 Ch∥(x0) − Ch(x, 180° − chi) e^(−d), x0 = x sin chi, and Ch∥
+    // comes from its own table (by the bits of x0). Where d = x cos²chi/(1 + sin chi) ≥ 60 + √x the
+    // subtracted term is below 1e-20 of the mantissa, which is then 2 x0 e^(x0) K1(x0):
+    // std::cyl_bessel_k is independent of both the table and the quadrature it was fitted to.
+    // x0 from 0 (chi = 180°) to ~700 (e^x0 still finite), scalar and batch, float inputs too.
+    std::vector<double> xs, cs, ss, want;
+    for (double x : {200.0, 1e3, 1e4})
+        for (double chi : {100.0, 120.0, 150.0, 170.0, 176.0, 178.0, 179.0, 179.9, 179.99, 180.0 - 1e-5, 180.0}) {
+            const auto a = ZenithAngle<double>::from_degrees(chi);
+            const double x0 = x * a.sin_chi;
+            const double d = x * a.cos_chi * a.cos_chi / (1.0 + a.sin_chi);
+            if (x0 > 700.0 || d < 60.0 + std::sqrt(x)) continue;
+            xs.push_back(x), cs.push_back(a.cos_chi), ss.push_back(a.sin_chi);
+            want.push_back(x0 == 0.0 ? 2.0 : 2.0 * x0 * std::exp(x0) * std::cyl_bessel_k(1.0, x0));
+        }
+    ASSERT_GE(xs.size(), 20u);
+    std::vector<double> m(xs.size()), e(xs.size());
+    chapman_scaled_batch<double>(ChapmanMethod::airmass, xs, cs, ss, m, e);
+    for (size_t i = 0; i < xs.size(); ++i) {
+        const auto one = chapman_scaled(ChapmanMethod::airmass, xs[i], ZenithAngle<double>{cs[i], ss[i]});
+        // The table: ≤ 8.3e-9 (gen_chapman_table --check); 2e-8 leaves room for the Bessel function's
+        // own rounding at x0 ~ 700.
+        EXPECT_NEAR(one.mantissa / want[i], 1.0, 2e-8) << "x=" << xs[i] << " cos=" << cs[i];
+        EXPECT_NEAR(m[i] / want[i], 1.0, 2e-8) << "batch, x=" << xs[i] << " cos=" << cs[i];
+        const auto f = chapman_scaled(ChapmanMethod::airmass, float(xs[i]), ZenithAngle<float>{float(cs[i]), float(ss[i])});
+        EXPECT_TRUE(std::isfinite(f.mantissa) && f.mantissa > 0.0f) << "float, x=" << xs[i] << " cos=" << cs[i];
+    }
+}
+
+TEST(ChapmanReference, AirmassBelowHorizonBeyondTheParallelTable) {
+    // x0 = x sin chi ≥ 2^40 takes the careful path (the Ch∥ table ends there), x0 below it the fast
+    // one: on both sides of the boundary the batch agrees with the scalar form and the value is
+    // finite, and on both sides Ch∥(x0) = √(πx0/2)(1 + 3/(8x0)) to 1e-7 where d is large.
+    const double chis[] = {100.0, 135.0, 170.0};
+    for (double x0_target : {0x1p40 * (1.0 - 1e-9), 0x1p40, 0x1p40 * (1.0 + 1e-9), 1e13})
+        for (double chi : chis) {
+            const auto a = ZenithAngle<double>::from_degrees(chi);
+            const double x = x0_target / a.sin_chi;
+            std::vector<double> xs{x, 2.0, x, 5.0}, cs{a.cos_chi, 0.5, a.cos_chi, -0.5},
+                ss{a.sin_chi, std::sqrt(0.75), a.sin_chi, std::sqrt(0.75)}, m(4), e(4);
+            chapman_scaled_batch<double>(ChapmanMethod::airmass, xs, cs, ss, m, e);
+            const auto one = chapman_scaled(ChapmanMethod::airmass, x, a);
+            const double x0 = x * a.sin_chi;
+            const double par = std::sqrt(M_PI * x0 / 2.0) * (1.0 + 3.0 / (8.0 * x0));
+            for (size_t i : {size_t(0), size_t(2)}) {
+                ASSERT_TRUE(std::isfinite(m[i]) && m[i] > 0.0) << "x0=" << x0 << " chi=" << chi;
+                EXPECT_NEAR(m[i] / one.mantissa, 1.0, 1e-12) << "x0=" << x0 << " chi=" << chi;
+                EXPECT_NEAR(e[i] / one.log_scale, 1.0, 1e-15) << "x0=" << x0 << " chi=" << chi;
+            }
+            EXPECT_NEAR(one.mantissa / (2.0 * par), 1.0, 1e-7) << "x0=" << x0 << " chi=" << chi;
+        }
 }
 
 }  // namespace

@@ -83,7 +83,7 @@ std::vector<double> make_coefficients(const std::vector<double>& nodes, int n_w,
 std::vector<double> make_parallel() {
     constexpr double width = 1.0 / (1 << kParallelCellBits);  // of τ
     static constexpr double nodes[4] = {0.0, 0.25 * width, 0.75 * width, width};
-    std::vector<double> coef(static_cast<size_t>(kParallelCells) * 4);
+    std::vector<double> coef(static_cast<size_t>(kParallelCells + 1) * 4);  // cell 0: zeros
     for (int k = 0; k < kParallelCells; ++k) {
         const int e = kParallelExpLo + (k >> kParallelCellBits), sub = k & ((1 << kParallelCellBits) - 1);
         long double a[4][5];
@@ -99,7 +99,7 @@ std::vector<double> make_parallel() {
                     const long double f = a[r][c] / a[c][c];
                     for (int q = c; q < 5; ++q) a[r][q] -= f * a[c][q];
                 }
-        for (int c = 0; c < 4; ++c) coef[4 * static_cast<size_t>(k) + c] = static_cast<double>(a[c][4] / a[c][c]);
+        for (int c = 0; c < 4; ++c) coef[4 * static_cast<size_t>(k + 1) + c] = static_cast<double>(a[c][4] / a[c][c]);
     }
     return coef;
 }
@@ -169,8 +169,8 @@ int main(int argc, char** argv) {
                 std::snprintf(buf, sizeof buf, "%.17g,%s", t[k], (k + 1) % 4 == 0 ? "\n" : " ");
                 f << buf;
             }
-            f << "};\n// Ch∥ by the bits of x0 (airmass_parallel_cell), kParallelCells cells × 4.\n"
-                 "alignas(64) constexpr double kParallel[kParallelCells * 4] = {\n";
+            f << "};\n// Ch∥ by the bits of x0 (airmass_parallel_cell): a cell of zeros, then kParallelCells cells × 4.\n"
+                 "alignas(64) constexpr double kParallel[(kParallelCells + 1) * 4] = {\n";
             for (size_t k = 0; k < parallel.size(); ++k) {
                 std::snprintf(buf, sizeof buf, "%.17g,%s", parallel[k], (k + 1) % 4 == 0 ? "\n" : " ");
                 f << buf;

@@ -205,7 +205,8 @@ typedef double AirmassV2 __attribute__((vector_size(16)));
 // τ ∈ [0, 2^−kParallelCellBits) the rest of f, and the cell holds the cubic in τ of Ch∥ over it,
 // through the exact quadrature at its ends and at a quarter and three quarters of it (continuous
 // from cell to cell; plugin/tools/gen_chapman_table.cpp, whose --check prints its error).
-// Octaves e ∈ [kParallelExpLo, kParallelExpHi]. Below 2^kParallelExpLo, x0 is raised to it:
+// The table's first cell is zeros (the batch points lanes that need no Ch∥ at it); the cells of x0
+// follow it. Octaves e ∈ [kParallelExpLo, kParallelExpHi]. Below 2^kParallelExpLo, x0 is raised to it:
 // Ch∥(x0) = 1 + x0 + O(x0² ln x0), a relative change ≤ 2^kParallelExpLo ≈ 9.3e-10. From
 // 2^(kParallelExpHi + 1) ≈ 1.1e12 on the fast paths send the lane to the careful one.
 constexpr int kParallelCellBits = 4;   // 16 cells per octave
@@ -213,6 +214,8 @@ constexpr int kParallelExpLo = -30;    // x0 < 2^−30: as 2^−30
 constexpr int kParallelExpHi = 39;     // the last octave in the table, [2^39, 2^40)
 constexpr int kParallelCells = (kParallelExpHi - kParallelExpLo + 1) << kParallelCellBits;
 constexpr int kParallelShift = 52 - kParallelCellBits;
+// Offset (in doubles) of x0's cell: (bits(x0) >> kParallelShift) · 4 − kParallelBias.
+constexpr unsigned long long kParallelBias = ((static_cast<unsigned long long>(1023 + kParallelExpLo) << kParallelCellBits) - 1) * 4;
 constexpr double kParallelLo = 0x1p-30;
 constexpr double kParallelEnd = 0x1p40;                  // fast paths: x0 < kParallelEnd
 constexpr double kParallelHi = 0x1.fffffffffffffp39;     // the largest double below it
@@ -225,7 +228,7 @@ inline int airmass_parallel_cell(double x0, double& tau) {
     x0 = x0 <= kParallelHi ? x0 : kParallelHi;
     const unsigned long long bits = std::bit_cast<unsigned long long>(x0);
     tau = std::bit_cast<double>((bits & ((1ull << kParallelShift) - 1)) | 0x3FF0000000000000ull) - 1.0;
-    return static_cast<int>((bits >> kParallelShift) - (static_cast<unsigned long long>(1023 + kParallelExpLo) << kParallelCellBits)) * 4;
+    return static_cast<int>((bits >> kParallelShift) * 4 - kParallelBias);
 }
 
 inline double airmass_read_parallel(const double* parallel, int off, double tau) {
@@ -240,7 +243,7 @@ inline double airmass_parallel(const double* parallel, double x0) {
     return airmass_read_parallel(parallel, off, tau);
 }
 
-// The built-in Ch∥ table: kParallelCells cells × 4 coefficients (generated chapman_airmass_table.cpp).
+// The built-in Ch∥ table: 1 + kParallelCells cells × 4 coefficients (generated chapman_airmass_table.cpp).
 const double* airmass_parallel_table();
 
 // One lane, for the scalar API. Above the horizon only what the upper branch needs (one square

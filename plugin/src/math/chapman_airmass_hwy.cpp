@@ -104,7 +104,7 @@ struct Chunk {
     // d below the horizon, −1 above), any of them below per compressed block, and their product
     // B R e^(−d) (−B R above).
     HWY_ALIGN double x[4], mu[4], s[4];
-    HWY_ALIGN double t0[kLanes], factor0[kLanes], log_scale[kLanes];
+    HWY_ALIGN double t0[kLanes], log_scale[kLanes];
     HWY_ALIGN int64_t off0[kLanes];
     uint8_t need[kBlocks], careful[kBlocks];
     HWY_ALIGN double qx[kLanes], qmu[kLanes], qd[kLanes], product[kLanes];
@@ -231,7 +231,8 @@ HWY_INLINE V part1(V x, V mu, V s, Chunk& ch, size_t j) {
     // Ch∥(x0)'s cell from the bits of x0 (airmass_parallel_cell), clamped: any x0, also of careful or
     // above-horizon lanes, gives a cell inside the table (NaN: vmaxpd returns its second operand).
     const V x0 = hn::Mul(x, s);
-    const M careful = hn::Or(hn::Not(hn::And(hn::Le(x, hn::Set(dd, 1e150)), hn::Le(hn::Abs(mu), one))),
+    const V nm = hn::Or(mu, hn::Set(dd, -0.0));  // −|cos chi|
+    const M careful = hn::Or(hn::Not(hn::And(hn::Le(x, hn::Set(dd, 1e150)), hn::Ge(nm, hn::Set(dd, -1.0)))),
                              hn::AndNot(hn::And(hn::Ge(s, zero), hn::Lt(x0, hn::Set(dd, detail::kParallelEnd))), below));
     const M fast_below = hn::AndNot(careful, below);
     const auto bits = hn::BitCast(du, hn::Min(hn::Max(x0, hn::Set(dd, detail::kParallelLo)), hn::Set(dd, detail::kParallelHi)));
@@ -239,14 +240,15 @@ HWY_INLINE V part1(V x, V mu, V s, Chunk& ch, size_t j) {
                                                hn::Set(du, uint64_t(0x3FF0000000000000)))),
                          one);
     hn::Store(t0, dd, ch.t0 + l);
-    const auto off = hn::Sub(hn::ShiftLeft<2>(hn::ShiftRight<detail::kParallelShift>(bits)),
-                             hn::Set(du, uint64_t(1023 + detail::kParallelExpLo) << (detail::kParallelCellBits + 2)));
-    hn::Store(hn::BitCast(di, off), di, ch.off0 + l);
-    hn::Store(hn::IfThenElseZero(fast_below, hn::Set(dd, 2.0)), dd, ch.factor0 + l);
-    const V d = hn::Div(hn::Mul(hn::Mul(x, mu), mu), hn::Add(one, s));
+    // The cell's offset; lanes that need no Ch∥ (above the horizon, careful) read the zero cell.
+    const auto off = hn::Sub(hn::ShiftLeft<2>(hn::ShiftRight<detail::kParallelShift>(bits)), hn::Set(du, detail::kParallelBias));
+    hn::Store(hn::And(hn::BitCast(di, off), hn::BitCast(di, hn::VecFromMask(dd, fast_below))), di, ch.off0 + l);
+    // d below the horizon, −d above it (x cos chi (−|cos chi|) / (1 + sin chi): below, bit for bit the
+    // scalar path's x m m / (1 + sin chi)), so d − 40 > 0 only below.
+    const V d = hn::Div(hn::Mul(hn::Mul(x, mu), nm), hn::Add(one, s));
     hn::Store(hn::IfThenElseZero(fast_below, d), dd, ch.log_scale + l);
     const V e = hn::Sub(d, hn::Set(dd, 40.0));  // negligible: d − 40 > √x
-    const M negligible = hn::And(below, hn::And(hn::Gt(e, zero), hn::Gt(hn::Mul(e, e), x)));
+    const M negligible = hn::And(hn::Gt(e, zero), hn::Gt(hn::Mul(e, e), x));
     uint8_t bits8[8] = {};
     hn::StoreMaskBits(dd, careful, bits8);
     ch.careful[j] = bits8[0];
@@ -430,8 +432,8 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
         n1 = 0;
         for (size_t j = 0; j < blocks; ++j) {
             const unsigned need = ch.need[j];
-            const V h = hn::Mul(hn::Load(dd, ch.factor0 + 4 * j),
-                                read_parallel(parallel, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j)));
+            const V h1 = read_parallel(parallel, ch.off0 + 4 * j, hn::Load(dd, ch.t0 + 4 * j));
+            const V h = hn::Add(h1, h1);  // 2 Ch∥(x0)
             const V product = hn::TableLookupLanes(hn::LoadU(dd, ch.product + n1), permutation(kPartition.expand[need]));
             const V keep = hn::BitCast(dd, hn::Load(hn::Full256<uint64_t>(), kPartition.keep[need]));
             const V mantissa = hn::Sub(h, hn::And(product, keep));
