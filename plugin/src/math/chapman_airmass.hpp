@@ -8,7 +8,9 @@
 // with tensor-product cubic Lagrange interpolation (4th order), stored per cell as
 // bicubic polynomial coefficients. The table is made at build time from the exact
 // quadrature by plugin/tools/gen_chapman_table.cpp.
-// Below the horizon the reflection identity is exact; Ch∥(x0) is the v = 0 column.
+// Below the horizon the reflection identity is exact; on the fast paths Ch∥(x0) comes from a
+// table of its own indexed by the bits of x0 (airmass_parallel), on the careful path from the
+// v = 0 column.
 #pragma once
 
 #include <algorithm>
@@ -133,13 +135,14 @@ struct AirmassTable {
 };
 
 // ---- The fast path (chapman.cpp's scalar form; chapman_airmass_batch.inc the batch) -------
-// The same interpolant as AirmassTable::scaled, arranged for speed: one square root per radius,
-// independent divisions whose latencies overlap, the table read on 4-double vectors, and a
-// polynomial exp. The batch kernel evaluates the same formulas four lanes at a time (with one
+// The same interpolant as AirmassTable::scaled, arranged for speed: one square root (√x),
+// independent divisions whose latencies overlap, the table read on 2-double vectors, below the
+// horizon Ch∥(x0) from its own table by the bits of x0 (airmass_parallel), and a polynomial exp. The batch kernel evaluates the same formulas four lanes at a time (with one
 // shared division), so batch and scalar agree to rounding (tests/test_chapman_batch.cpp).
 // The arithmetic is in double for float and double inputs: float then costs no accuracy in
 // d = x − x0, which multiplies the whole value.
-// Inputs the fast path cannot take (x beyond ~1e150, +inf or NaN) go through AirmassTable::scaled.
+// Inputs the fast path cannot take (x beyond ~1e150, +inf or NaN; below the horizon x sin chi
+// ≥ 2^40, beyond the Ch∥ table) go through AirmassTable::scaled.
 
 // e^(−d) for d ≥ 0 (d > 700 gives e^(−700), which no caller can tell from 0 beside the O(1)
 // terms it is added to): d = k ln 2 + r, |r| ≤ ln2/2, e^(−r) by its Taylor polynomial to degree

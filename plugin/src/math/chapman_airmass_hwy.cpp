@@ -99,8 +99,8 @@ struct Chunk {
     HWY_ALIGN int32_t off[kLanes];
     uint8_t slow[kBlocks];  // lanes the fast path cannot take (bit k: lane k)
     // A chunk with lanes below the horizon (part1 and batch()): the tail block's inputs in double;
-    // per block in input order Ch∥(x0)'s cell (t0, off0), 2 c0, d (0 above), the lanes that need
-    // B R and the careful lanes (bit k: lane k); the lanes that need B R compressed (x, mu, and
+    // per block in input order Ch∥(x0)'s cell (τ in t0, off0: the zero cell above the horizon or
+    // careful), d (0 above), the lanes that need B R and the careful lanes (bit k: lane k); the lanes that need B R compressed (x, mu, and
     // d below the horizon, −1 above), any of them below per compressed block, and their product
     // B R e^(−d) (−B R above).
     HWY_ALIGN double x[4], mu[4], s[4];
@@ -211,16 +211,19 @@ HWY_INLINE V stage_b(const AirmassTable& table, const Chunk& ch, size_t j) {
 }
 
 // A chunk with lanes below the horizon goes in two parts. Below the horizon the mantissa is
-// 2 c0 Ch∥(x0) − B R e^(−d), and where d > 40 + √x the subtracted term is below 1e-17 of the
+// 2 Ch∥(x0) − B R e^(−d), and where d > 40 + √x the subtracted term is below 1e-17 of the
 // mantissa (B R ≤ 1.2 (1 + 1.26 √x), mantissa ≥ Ch∥(x0) ≥ 1): about half of bench_chapman's lanes
-// below the horizon. Part one, on every block in input order: x0's square root, a division of its
-// own, the cell of Ch∥(x0) and d; then the lanes that still need B R (above the horizon, or d not
-// large enough) are compressed, a block of four at a time, and part two evaluates B R (e^(−d)) on
-// those alone: their square root, division, table read and exp. The negligible lanes cost no √x,
-// no table read and no exp.
+// below the horizon. Part one, on every block in input order: the cell of Ch∥(x0) from the bits of
+// x0 (its own table, airmass_parallel_cell: no square root), d by a division of its own, and the
+// compression of the lanes that still need B R (above the horizon, or d not large enough), a
+// block of four at a time; part two evaluates B R (e^(−d)) on those alone: their square root,
+// division, table read and exp. The negligible lanes cost no square root, no read of the big table
+// and no exp.
 //
-// Part one of block j: stores t0, off0, 2 c0 (0 above or careful) and d (0 above), returns the
-// lanes that need B R and sets the careful lanes' bits (x > 1e150, NaN: the careful scalar path).
+// Part one of block j: stores τ and the offset of Ch∥(x0)'s cell (the zero cell above the horizon
+// or careful), the lanes that need B R and the careful lanes' bits (x > 1e150, NaN, x0 ≥ 2^40:
+// the careful scalar path); returns d below the horizon and −x cos²chi/(1 + sin chi) ≤ 0 above,
+// stores d in ch.log_scale (0 above or careful).
 HWY_INLINE V part1(V x, V mu, V s, Chunk& ch, size_t j) {
     const DD dd;
     const hn::RebindToSigned<DD> di;
@@ -428,7 +431,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             const V e = ch.below[j] ? hn::IfThenElse(hn::Lt(d, hn::Zero(dd)), hn::Set(dd, -1.0), exp_neg(d)) : hn::Set(dd, -1.0);
             hn::Store(hn::Mul(upper, e), dd, ch.product + 4 * j);
         }
-        // 2 c0 Ch∥(x0) minus the expanded products, in input order.
+        // 2 Ch∥(x0) minus the expanded products, in input order.
         n1 = 0;
         for (size_t j = 0; j < blocks; ++j) {
             const unsigned need = ch.need[j];
