@@ -371,11 +371,13 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
         // Any lane below the horizon, as a mask per block (not the OR of the inputs' bits: a NaN or
         // an infinite cos χ in one lane would hide a negative one in another). A NaN lane counts
         // as above; stage_a sends it to the careful path.
+        // The scan stops at the first block with a lane below (a chunk all below costs one block's).
         auto any_below = hn::Lt(hn::Zero(dd), hn::Zero(dd));  // no lane
         for (size_t j = 0; j < blocks; ++j) {
             V x, mu, s;
             load(j, x, mu, s);
             any_below = hn::Or(any_below, hn::Lt(mu, hn::Zero(dd)));
+            if (!hn::AllFalse(dd, any_below)) break;
         }
         if (hn::AllFalse(dd, any_below)) {  // all above: B R, log scale 0
             for (size_t j = 0; j < blocks; ++j) {
