@@ -115,5 +115,32 @@ TEST(ChapmanBatch, EveryTailLengthAndCarefulLanesAmongFastOnes) {
     ::testing::Test::RecordProperty("simd", std::string(simd_target_name(simd_target())));
 }
 
+TEST(ChapmanBatch, OddSinesNextToLanesBelowTheHorizon) {
+    // Whatever the scalar path makes of sin chi outside [0, 1] (it trusts the caller's angle above the
+    // horizon, takes the careful path below it), the batch makes the same, also in a block that has
+    // lanes below the horizon. Above the horizon with sin chi < −1 the Highway kernel once took
+    // 1 + sin chi < 0 for a negligible reflected term and returned 0 ({1e4, 0.5, −1.001}: scalar 1.9994).
+    const double inf = std::numeric_limits<double>::infinity();
+    const std::vector<double> x0{1e4, 1e4, 1e4, 1e4, 5.0, 1e4, 100.0, 5.0, 1e4, 5.0};
+    const std::vector<double> c0{0.5, 0.5, 0.9, 0.1, -0.5, -0.5, -0.5, -0.5, -0.5, -0.5};
+    const std::vector<double> s0{-1.001, -3.0, -1.5, -1.0001, std::sqrt(0.75), -0.5, -1.0, -inf, -2.0, -1e-300};
+    for (size_t n : {size_t(1), size_t(2), size_t(5), x0.size()}) {
+        std::vector<double> x(x0.begin(), x0.begin() + n), c(c0.begin(), c0.begin() + n), s(s0.begin(), s0.begin() + n);
+        if (n == 2) x = {1e4, 5.0}, c = {0.5, -0.5}, s = {-1.001, std::sqrt(0.75)};
+        std::vector<double> m(n), e(n);
+        chapman_scaled_batch<double>(ChapmanMethod::airmass, x, c, s, m, e);
+        for (size_t i = 0; i < n; ++i) {
+            const auto one = chapman_scaled(ChapmanMethod::airmass, x[i], ZenithAngle<double>{c[i], s[i]});
+            if (std::isnan(one.mantissa) || std::isnan(m[i])) {
+                EXPECT_TRUE(std::isnan(one.mantissa) && std::isnan(m[i])) << "n=" << n << " i=" << i << ": " << m[i] << " vs " << one.mantissa;
+                continue;
+            }
+            EXPECT_LE(rel_diff(m[i], e[i], one.mantissa, one.log_scale), 1e-12 + 8e-16 * e[i])
+                << "n=" << n << " i=" << i << ": batch (" << m[i] << ", " << e[i] << "), scalar (" << one.mantissa << ", "
+                << one.log_scale << ")";
+        }
+    }
+}
+
 }  // namespace
 }  // namespace airmass

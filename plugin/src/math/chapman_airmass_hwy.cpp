@@ -223,7 +223,7 @@ HWY_INLINE V stage_b(const AirmassTable& table, const Chunk& ch, size_t j) {
 //
 // Part one of block j: stores τ and the offset of Ch∥(x0)'s cell (the zero cell above the horizon
 // or careful), the lanes that need B R and the careful lanes' bits (x > 1e150, NaN, x0 ≥ 2^40:
-// the careful scalar path); returns d below the horizon and −x cos²chi/(1 + sin chi) ≤ 0 above,
+// the careful scalar path); returns d below the horizon and −x cos²chi/(1 + sin chi) above (≤ 0 unless sin chi < −1),
 // stores d in ch.log_scale (0 above or careful).
 HWY_INLINE V part1(V x, V sx, V mu, V s, Chunk& ch, size_t j) {
     const DD dd;
@@ -248,10 +248,11 @@ HWY_INLINE V part1(V x, V sx, V mu, V s, Chunk& ch, size_t j) {
     const auto off = hn::Sub(hn::ShiftLeft<2>(hn::ShiftRight<detail::kParallelShift>(bits)), hn::Set(du, detail::kParallelBias));
     hn::Store(hn::And(hn::BitCast(di, off), hn::BitCast(di, hn::VecFromMask(dd, fast_below))), di, ch.off0 + l);
     // d below the horizon, −d above it (x cos chi (−|cos chi|) / (1 + sin chi): below, bit for bit the
-    // scalar path's x m m / (1 + sin chi)), so d − 40 > 0 only below.
+    // scalar path's x m m / (1 + sin chi)).
     const V d = hn::Div(hn::Mul(hn::Mul(x, mu), nm), hn::Add(one, s));
     hn::Store(hn::IfThenElseZero(fast_below, d), dd, ch.log_scale + l);
-    const M negligible = hn::Gt(hn::Sub(d, hn::Set(dd, 40.0)), sx);  // d − 40 > √x
+    // d − 40 > √x, below the horizon only: above it with sin chi < −1, 1 + sin chi < 0 makes d > 0.
+    const M negligible = hn::And(below, hn::Gt(hn::Sub(d, hn::Set(dd, 40.0)), sx));
     uint8_t bits8[8] = {};
     hn::StoreMaskBits(dd, careful, bits8);
     ch.careful[j] = bits8[0];
