@@ -144,8 +144,25 @@ TEST(ChapmanReference, AirmassBelowHorizonBeyondTheParallelTable) {
                 EXPECT_NEAR(m[i] / one.mantissa, 1.0, 1e-12) << "x0=" << x0 << " chi=" << chi;
                 EXPECT_NEAR(e[i] / one.log_scale, 1.0, 1e-15) << "x0=" << x0 << " chi=" << chi;
             }
-            EXPECT_NEAR(one.mantissa / (2.0 * par), 1.0, 1e-7) << "x0=" << x0 << " chi=" << chi;
+            // x0 < 2^40: the table's path, within its 8.2e-9 (the careful path's quadrature beyond).
+            EXPECT_NEAR(one.mantissa / (2.0 * par), 1.0, x0 < 0x1p40 ? 1e-8 : 1e-7) << "x0=" << x0 << " chi=" << chi;
+            if (x0 < 0x1p40) {
+                EXPECT_NEAR(m[0] / (2.0 * par), 1.0, 1e-8) << "batch, x0=" << x0 << " chi=" << chi;
+            }
         }
+    // Just below the horizon at x ≈ 2^40 (chi = 90.0001°: d ≈ 1.7, the reflected term counts): x0 on
+    // both sides of the table's end, against the exact method (the airmass method's 1e-7).
+    const auto a = ZenithAngle<double>::from_degrees(90.0001);
+    for (double x : {0x1p40 * (1.0 - 1e-9), 0x1p40, 0x1p40 * (1.0 + 1e-9)}) {
+        std::vector<double> xs{x, 2.0, 5.0, x}, cs{a.cos_chi, 0.5, -0.5, a.cos_chi},
+            ss{a.sin_chi, std::sqrt(0.75), std::sqrt(0.75), a.sin_chi}, m(4), e(4);
+        chapman_scaled_batch<double>(ChapmanMethod::airmass, xs, cs, ss, m, e);
+        const auto one = chapman_scaled(ChapmanMethod::airmass, x, a);
+        const auto ex = chapman_scaled(ChapmanMethod::exact, x, a);
+        EXPECT_LE(rel_err(std::log(one.mantissa) + one.log_scale, std::log(ex.mantissa) + ex.log_scale), 1e-7) << "x=" << x;
+        for (size_t i : {size_t(0), size_t(3)})
+            EXPECT_LE(rel_err(std::log(m[i]) + e[i], std::log(one.mantissa) + one.log_scale), 1e-12) << "batch, x=" << x;
+    }
 }
 
 }  // namespace
