@@ -82,7 +82,12 @@ TEST(ChapmanReference, AirmassBelowHorizonIsTwiceBesselWhereTheReflectedTermVani
         EXPECT_NEAR(one.mantissa / want[i], 1.0, 2e-8) << "x=" << xs[i] << " cos=" << cs[i];
         EXPECT_NEAR(m[i] / want[i], 1.0, 2e-8) << "batch, x=" << xs[i] << " cos=" << cs[i];
         const auto f = chapman_scaled(ChapmanMethod::airmass, float(xs[i]), ZenithAngle<float>{float(cs[i]), float(ss[i])});
-        EXPECT_TRUE(std::isfinite(f.mantissa) && f.mantissa > 0.0f) << "float, x=" << xs[i] << " cos=" << cs[i];
+        // Float: the double path at the float inputs, the mantissa and the log scale each rounded to float.
+        const auto fd = chapman_scaled(ChapmanMethod::airmass, double(float(xs[i])),
+                                       ZenithAngle<double>{double(float(cs[i])), double(float(ss[i]))});
+        ASSERT_TRUE(std::isfinite(f.mantissa) && f.mantissa > 0.0f) << "float, x=" << xs[i] << " cos=" << cs[i];
+        EXPECT_NEAR(double(f.mantissa) / fd.mantissa, 1.0, 1e-6) << "float, x=" << xs[i] << " cos=" << cs[i];
+        EXPECT_NEAR(double(f.log_scale), fd.log_scale, 1e-6 * fd.log_scale) << "float, x=" << xs[i] << " cos=" << cs[i];
     }
 }
 
