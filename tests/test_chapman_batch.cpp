@@ -142,5 +142,34 @@ TEST(ChapmanBatch, OddSinesNextToLanesBelowTheHorizon) {
     }
 }
 
+TEST(ChapmanBatch, CosineOutsideItsRange) {
+    // cos chi = ±inf: NaN from the scalar path and the batch (the careful path), alone, next to a lane
+    // below the horizon and next to one above; |cos chi| slightly or far beyond 1: the same value from
+    // both (below the horizon both take the careful path, above it both the fast one).
+    const double inf = std::numeric_limits<double>::infinity();
+    for (double c : {inf, -inf, 1.5, -1.5, 1.0 + 1e-7, -1.0 - 1e-7, 1e200, -1e200})
+        for (const std::vector<double>& other : {std::vector<double>{c, 0.0}, {-0.5, std::sqrt(0.75)}, {0.5, std::sqrt(0.75)}}) {
+            const std::vector<double> x{10.0, 5.0, 1e4, 10.0, 10.0}, cs{c, other[0], c, c, c}, s{0.0, other[1], 0.0, 0.0, 0.0};
+            std::vector<double> m(x.size()), e(x.size());
+            chapman_scaled_batch<double>(ChapmanMethod::airmass, x, cs, s, m, e);
+            for (size_t i = 0; i < x.size(); ++i) {
+                const auto one = chapman_scaled(ChapmanMethod::airmass, x[i], ZenithAngle<double>{cs[i], s[i]});
+                if (std::isinf(cs[i])) {
+                    EXPECT_TRUE(std::isnan(one.mantissa) && std::isnan(m[i]))
+                        << "cos=" << cs[i] << " i=" << i << ": scalar " << one.mantissa << ", batch " << m[i];
+                    continue;
+                }
+                if (std::isnan(one.mantissa) || std::isnan(m[i])) {
+                    EXPECT_TRUE(std::isnan(one.mantissa) && std::isnan(m[i])) << "cos=" << cs[i] << " i=" << i;
+                    continue;
+                }
+                if (m[i] == one.mantissa && e[i] == one.log_scale) continue;  // also an infinite log scale
+                EXPECT_LE(rel_diff(m[i], e[i], one.mantissa, one.log_scale), 1e-12 + 8e-16 * e[i])
+                    << "cos=" << cs[i] << " i=" << i << ": batch (" << m[i] << ", " << e[i] << "), scalar (" << one.mantissa
+                    << ", " << one.log_scale << ")";
+            }
+        }
+}
+
 }  // namespace
 }  // namespace airmass

@@ -261,8 +261,9 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
         const double a = 1.0 + sx, b = 1.0 + mu * Y, q = (c - 1.0) * mu + 1.0;
         // Three independent divisions: on one lane their latencies overlap, which is shorter
         // than the batch's shared division (three multiplications before and after it).
-        // Negative, huge or NaN x: the careful path (a NaN index would read outside the table).
-        if (!(x >= 0.0 && x <= 1e300)) return table.scaled(x_in, mu_in, s_in);
+        // Negative, huge or NaN x, and cos chi = +inf: the careful path (a NaN index would read outside
+        // the table; cos chi = +inf gives NaN there, as in the batch kernels, whose a b q > 1e300 sends it).
+        if (!(x >= 0.0 && x <= 1e300 && mu < std::numeric_limits<double>::infinity())) return table.scaled(x_in, mu_in, s_in);
         const double w = 1.0 / a;
         const double v_raw = mu * (1.0 + Y) / b;
         const double v = v_raw < 1.0 ? v_raw : 1.0;
@@ -276,10 +277,10 @@ inline ScaledChapman<T> airmass_scaled_fast(const AirmassTable& table, const dou
     }
     // Below: the same with m = −mu, Ch∥(x0) from its own table and d; again independent divisions (four).
     const double s = s_in;
-    // Beyond x ~ 1e150, x sin chi beyond the Ch∥ table (and for negative or NaN x) the careful path, as
-    // the batch kernels do.
+    // Beyond x ~ 1e150, x sin chi beyond the Ch∥ table, cos chi < −1 (−inf: NaN there) and for negative
+    // or NaN x or sin chi the careful path, as the batch kernels do.
     const double x0 = x * s;
-    if (!(x >= 0.0 && x <= 1e150) || !(s >= 0.0) || !(x0 < kParallelEnd)) return table.scaled(x_in, mu_in, s_in);
+    if (!(x >= 0.0 && x <= 1e150 && mu >= -1.0) || !(s >= 0.0) || !(x0 < kParallelEnd)) return table.scaled(x_in, mu_in, s_in);
     const double m = -mu;
     const double sx = std::sqrt(x);
     const double Y = sx * 0.70710678118654752;
