@@ -100,7 +100,7 @@ struct Chunk {
     uint8_t slow[kBlocks];  // lanes the fast path cannot take (bit k: lane k)
     // A chunk with lanes below the horizon (part1 and batch()): the tail block's inputs in double;
     // per block in input order Ch∥(x0)'s cell (τ in t0, off0: the zero cell above the horizon or
-    // careful), d (0 above), the lanes that need B R and the careful lanes (bit k: lane k); the lanes that need B R compressed (x, mu, and
+    // careful), d (0 above), the lanes that need B R and the careful lanes (bit k: lane k); the lanes that need B R compressed (√x, mu, and
     // d below the horizon, −1 above), any of them below per compressed block, and their product
     // B R e^(−d) (−B R above).
     HWY_ALIGN double x[4], mu[4], s[4];
@@ -154,7 +154,8 @@ HWY_INLINE V read(const double* coefficients, const int32_t* o, const double* t,
     return hn::MulAdd(hn::MulAdd(hn::MulAdd(C3, u, C2), u, C1), u, C0);
 }
 
-// ... and Ch∥'s cubics (airmass_parallel_table, 16 KB: in L1) at four lanes' cells, o[k] = the
+// ... and Ch∥'s cubics (airmass_parallel_table, 35,872 B: more than a 32 KiB L1d, of which x ≤ 1e7
+// touches the octaves up to 2^24, 28,160 B) at four lanes' cells, o[k] = the
 // cell's offset: one load per lane, a transpose and Estrin in t on all lanes.
 HWY_INLINE V read_parallel(const double* parallel, const int64_t* o, V t) {
     const DD dd;
