@@ -1170,7 +1170,7 @@ def test_vdb_tiles_render_as_one_grid():
     Blender 3.4's Cycles bounds each Volume object by a mesh of its grid's 8³ leaves padded by
     one voxel across faces only, so a tile's trilinear interpolant was cut off in the quarter of
     a seam cell that lies diagonally beyond its last voxels (measured before the fix: 25 % of
-    the density missing at the middle of a cell where four tiles meet, 3 % along a face seam
+    the density missing at the middle of a cell where four tiles meet, 1.4 % along a face seam
     crossed by such edges). Box 40×40×10 km, 1-km voxels, 8-voxel tiles (108 files) against one
     grid; the view straight down on the corner of four tiles (seams x ∈ [−1, 0], y ∈ [−9, −8])."""
     import numpy as np
