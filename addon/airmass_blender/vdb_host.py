@@ -10,11 +10,9 @@ module the running Blender has:
 
 — the same calls in both (FloatGrid, copyFromArray(array, ijk, tolerance), the transform,
 gridClass, metadata items, write(filename, grids, metadata)). The values are copied block by
-block (slabs of whole 8-voxel leaves along i) with tolerance 0: a voxel is active where
+block (slabs of whole 8-voxel leaves along i) with tolerance 0: a voxel is active exactly when
 the library's value is nonzero, as in the grids `airmass vdb` writes, so both give the same
-values, transforms and metadata. Besides, every empty leaf next to a leaf with values gets one
-active voxel of value 0 at its centre (guard_leaves: Cycles before 5.0 would otherwise cut a
-tile's interpolation off where tiles meet, docs/vdb.md "Tiling").
+grids, transforms and metadata.
 
 Files are written atomically: each to a hidden temporary in the destination folder, all moved
 into place (os.replace) only after the last was written; a failure or a cancel removes the
@@ -35,8 +33,6 @@ NO_MODULE_MESSAGE = ("this Blender has no OpenVDB Python module (neither 'openvd
 
 # Share of the progress bar taken by the plan (the library's sampling pass); the blocks take the rest.
 PLAN_SHARE = 0.4
-# OpenVDB's leaf edge (voxels).
-LEAF = 8
 # Largest dense block requested at once (floats): 16 MiB.
 BLOCK_FLOATS = 4 << 20
 
@@ -201,44 +197,6 @@ def _keep_previous(dest):
     return link
 
 
-def occupied_leaves(values, lo):
-    """Leaf coordinates (⌊ijk / 8⌋) of the 8³ leaves in which the block `values` (index box from
-    `lo`, shape (nx, ny, nz)) has a nonzero value, as an (n, 3) int64 array."""
-    import numpy as np
-    lo = np.asarray(lo, dtype=np.int64)
-    first = lo // LEAF
-    start = lo - first * LEAF  # offset of the block in its first leaf, 0..7
-    counts = (start + np.asarray(values.shape) + LEAF - 1) // LEAF
-    mask = np.zeros(tuple(int(c) * LEAF for c in counts), dtype=bool)
-    mask[start[0]:start[0] + values.shape[0], start[1]:start[1] + values.shape[1],
-         start[2]:start[2] + values.shape[2]] = values != 0
-    occupied = mask.reshape(counts[0], LEAF, counts[1], LEAF, counts[2], LEAF).any(axis=(1, 3, 5))
-    return np.argwhere(occupied).astype(np.int64) + first
-
-
-def guard_leaves(leaves):
-    """The leaves next to an occupied leaf (across a face, an edge or a corner) that hold no
-    nonzero value: each gets one active voxel of value 0 (the background, so the field is
-    unchanged). Cycles before Blender 5.0 bounds a Volume object by a mesh of its active leaves
-    padded by one voxel across faces only; without these a tile's trilinear interpolant is cut
-    off in the part of a seam cell diagonally beyond its last voxels, so that where tiles meet
-    along an edge up to 25 % of the density went missing (docs/vdb.md, Tiling)."""
-    import numpy as np
-    leaves = [a for a in leaves if len(a)]
-    if not leaves:
-        return np.zeros((0, 3), dtype=np.int64)
-    occupied = np.unique(np.concatenate(leaves), axis=0)
-    steps = np.array([d for d in itertools.product((-1, 0, 1), repeat=3) if d != (0, 0, 0)], dtype=np.int64)
-    around = np.unique((occupied[:, None, :] + steps[None, :, :]).reshape(-1, 3), axis=0)
-    low = around.min(axis=0)
-    span = around.max(axis=0) - low + 1
-
-    def key(a):
-        a = a - low
-        return (a[:, 0] * span[1] + a[:, 1]) * span[2] + a[:, 2]
-    return around[~np.isin(key(around), key(occupied))]
-
-
 def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
     """One grid of the plan, filled block by block. `done`/`total`: dense voxels for progress."""
     g = vdb.FloatGrid(0.0)
@@ -249,7 +207,6 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
         raise RuntimeError("this OpenVDB names the fog volume class %r, the plan %r" % (g.gridClass, plan["grid_class"]))
     # Full 32-bit floats (thin air needs the mantissa) is OpenVDB's default; setting it would add
     # an "is_saved_as_half_float" metadata item the library's grids do not have.
-    leaves = []
     for lo, hi in slabs(grid["bbox_min"], grid["bbox_max"]):
         n = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
         start = PLAN_SHARE + (1.0 - PLAN_SHARE) * done / total
@@ -258,7 +215,6 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
         values = native.vdb_grid_values(spec, grid["name"], lo, hi, progress=reporter.progress,
                                         progress_range=(start, end), **options)
         g.copyFromArray(values, ijk=tuple(int(x) for x in lo), tolerance=0.0)
-        leaves.append(occupied_leaves(values, lo))
         del values
         done += n
         reporter.at(end)
@@ -267,9 +223,6 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
     if g.activeVoxelCount() != grid["active_voxels"]:
         raise RuntimeError("grid '%s' of tile %d has %d active voxels, the plan %d" % (
             grid["name"], grid["tile"], g.activeVoxelCount(), grid["active_voxels"]))
-    accessor = g.getAccessor()
-    for leaf in guard_leaves(leaves):
-        accessor.setValueOn(tuple(int(LEAF * c + LEAF // 2) for c in leaf), 0.0)
     return g, done
 
 

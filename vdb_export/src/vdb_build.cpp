@@ -4,7 +4,6 @@
 // FAQ recommends for multithreaded writes: no shared accessor, no locks). The tiles, the
 // grids' boxes and the limits are the plan's (make_volume_plan), so a host that copies
 // sample_volume_box's dense blocks into its own grids gets exactly these grids.
-#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
@@ -30,34 +29,6 @@ openvdb::FloatGrid::Ptr empty_grid(const VdbLayout& layout, const std::string& n
 }
 
 }  // namespace
-
-std::size_t add_guard_voxels(openvdb::FloatGrid& grid) {
-    auto& tree = grid.tree();
-    const auto holds_values = [](const LeafT& leaf) {
-        for (auto v = leaf.cbeginValueOn(); v; ++v)
-            if (*v != 0.0f) return true;
-        return false;
-    };
-    const auto empty = [&](const openvdb::Coord& origin) {
-        const LeafT* leaf = tree.probeConstLeaf(origin);
-        return leaf == nullptr || leaf->onVoxelCount() == 0;
-    };
-    std::vector<openvdb::Coord> guards;
-    for (auto it = tree.cbeginLeaf(); it; ++it) {
-        if (!holds_values(*it)) continue;
-        const openvdb::Coord o = it->origin();
-        for (int dx = -1; dx <= 1; ++dx)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dz = -1; dz <= 1; ++dz) {
-                    const openvdb::Coord n = o.offsetBy(dx * int(LeafT::DIM), dy * int(LeafT::DIM), dz * int(LeafT::DIM));
-                    if ((dx != 0 || dy != 0 || dz != 0) && empty(n)) guards.push_back(n);
-                }
-    }
-    std::sort(guards.begin(), guards.end());
-    guards.erase(std::unique(guards.begin(), guards.end()), guards.end());
-    for (const auto& n : guards) tree.setValueOn(n.offsetBy(int(LeafT::DIM) / 2), 0.0f);
-    return guards.size();
-}
 
 VdbVolume build_vdb_volume(const Scene& scene, const VdbOptions& options, const VdbRunOptions& run) {
     return build_vdb_volume(resolve_vdb_layout(scene, options), run);

@@ -64,10 +64,7 @@ VdbStats export_vdb(const Scene& scene, const VdbOptions& options, const fs::pat
         if (run.cancel && run.cancel->requested()) throw Cancelled("vdb export cancelled");
         openvdb::GridPtrVec grids;
         for (const auto& g : volume.tiles[t].grids)
-            if (g) {
-                add_guard_voxels(*g);  // the files' grids, not the plan's (docs/vdb.md "Tiling")
-                grids.push_back(g);
-            }
+            if (g) grids.push_back(g);
         const fs::path tmp = outputs.add(paths[t]);
         try {
             CheckedVdbWriter writer;

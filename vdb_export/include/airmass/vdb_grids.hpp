@@ -31,16 +31,6 @@ VdbVolume build_vdb_volume(const Scene& scene, const VdbOptions& options, const 
 // The same from a resolved layout (the trade report reuses one layout per voxel size).
 VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run = {});
 
-// Guard voxels, added to every grid as it is written (the files of `airmass vdb` and of the
-// Blender add-on, vdb_host.guard_leaves): every 8³ leaf next to a leaf with a nonzero active
-// voxel — across a face, an edge or a corner — that has none gets one active voxel of value 0 (the
-// background, so the field is unchanged) at its centre, origin + (4, 4, 4). Cycles before
-// Blender 5.0 bounds a Volume object by a mesh of its active leaves padded by one voxel across
-// faces only: without them a tile's trilinear interpolant is cut off in the part of a seam
-// cell diagonally beyond its last voxels (docs/vdb.md "Tiling"). Returns how many it added
-// (0 when called again).
-std::size_t add_guard_voxels(openvdb::FloatGrid& grid);
-
 // The volume layer's vectors and boxes as OpenVDB's.
 inline openvdb::Vec3d to_openvdb(const Vec3<double>& v) { return openvdb::Vec3d(v.x, v.y, v.z); }
 inline openvdb::Coord to_openvdb(const VoxelCoord& c) { return openvdb::Coord(c[0], c[1], c[2]); }
