@@ -68,7 +68,7 @@ SCENES=(
   "terrain_sky|The same mountains, Airmass sky texture only|8|-2.4"
   "terrain_volume|Mountains at golden hour, Airmass volume|16|-2.5"
   "sunset_shadow|Sunset: the Earth's shadow and the Belt of Venus|8|-0.5"
-  "limb_vdb|The limb from 400 km, VDB volume|64|-4.6"
+  "limb_vdb|The limb from 400 km, VDB volume|48|-4.6"
 )
 
 status=0
