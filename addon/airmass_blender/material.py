@@ -97,8 +97,8 @@ class NodeBuilder:
         return n.outputs["Value"]
 
 
-def altitude_socket(nb, position, center, radius):
-    """h = |p − c| − R computed as q/(sqrt(q + R²) + R), q = p·p − 2p·c + (c·c − R²)."""
+def radius_excess_socket(nb, position, center, radius):
+    """q = r² − R² = p·p − 2p·c + (c·c − R²): no planet-sized radii subtracted (float32)."""
     cc_minus_r2 = sum(x * x for x in center) - radius * radius
     pp = nb.dot(position, position)
     q = pp
@@ -107,6 +107,12 @@ def altitude_socket(nb, position, center, radius):
         q = nb.math("MULTIPLY_ADD", pc, -2.0, pp)
     if cc_minus_r2 != 0.0:
         q = nb.math("ADD", q, cc_minus_r2)
+    return q
+
+
+def altitude_socket(nb, position, center, radius):
+    """h = |p − c| − R computed as q/(sqrt(q + R²) + R), q = radius_excess_socket."""
+    q = radius_excess_socket(nb, position, center, radius)
     r = nb.math("SQRT", nb.math("ADD", q, radius * radius))
     return nb.math("DIVIDE", q, nb.math("ADD", r, radius))
 
@@ -288,6 +294,22 @@ def phase_socket(nb, kind, g, cos_theta):
     return value
 
 
+def texel_lookup(nb, image, u, v, name):
+    """RGB sockets of `image` (Linear, Extend) at unit coordinates x_u = a·s + b for u = (s, a, b)
+    and likewise v, where texel i sits at x = i/(n − 1): the image's u = (x (n − 1) + 0.5)/n."""
+    w, h = image.size
+    uv = nb.node("ShaderNodeCombineXYZ")
+    for axis, (sock, a, b), n in ((0, u, w), (1, v, h)):
+        nb.tree.links.new(nb.math("MULTIPLY_ADD", sock, a * (n - 1.0) / n, (b * (n - 1.0) + 0.5) / n),
+                          uv.inputs[axis])
+    tex = nb.node("ShaderNodeTexImage", name=name, label=name, interpolation="Linear", extension="EXTEND")
+    tex.image = image
+    nb.tree.links.new(uv.outputs[0], tex.inputs["Vector"])
+    sep = nb.node("ShaderNodeSeparateXYZ")
+    nb.tree.links.new(tex.outputs["Color"], sep.inputs[0])
+    return [sep.outputs[ch] for ch in range(3)]
+
+
 def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
     """An Emission closure of single-scattered sunlight: at the shading point p, toward the
     ray's origin (Geometry "Incoming": correct for every ray, camera or bounce),
@@ -314,13 +336,8 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
     s_dir = sun.direction
     position = nb.node("ShaderNodeNewGeometry", name="sun position", label="sun position")
     P = position.outputs["Position"]
-    # q = r² − R² = p·p − 2 p·c + (c·c − R²) (no large radii subtracted); r μ = p·s − c·s.
-    pp = nb.dot(P, P)
-    q = nb.math("MULTIPLY_ADD", nb.dot(P, c), -2.0, pp) if any(c) else pp
-    cc_r2 = sum(x * x for x in c) - R * R
-    if cc_r2 != 0.0:
-        q = nb.math("ADD", q, cc_r2)
-    q = nb.math("MAXIMUM", q, 0.0)
+    # q = r² − R² (radius_excess_socket), ≥ 0 for the square roots; r μ = p·s − c·s.
+    q = nb.math("MAXIMUM", radius_excess_socket(nb, P, c, R), 0.0)
     r = nb.math("SQRT", nb.math("ADD", q, R * R))
     rho = nb.math("SQRT", q)
     sun_vec = nb.node("ShaderNodeCombineXYZ", name="sun direction", label="sun direction")
@@ -337,19 +354,10 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
     x_r = nb.math("DIVIDE", rho, H)
     columns = {}
     for index, image in enumerate(sun.images):
-        w, h = image.size
-        uv = nb.node("ShaderNodeCombineXYZ")
-        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_mu, (w - 1.0) / w, 0.5 / w), uv.inputs[0])
-        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_r, (h - 1.0) / h, 0.5 / h), uv.inputs[1])
-        tex = nb.node("ShaderNodeTexImage", name="sun columns %d" % index, label="sun columns %d" % index,
-                      interpolation="Linear", extension="EXTEND")
-        tex.image = image
-        nb.tree.links.new(uv.outputs[0], tex.inputs["Vector"])
-        sep = nb.node("ShaderNodeSeparateXYZ")
-        nb.tree.links.new(tex.outputs["Color"], sep.inputs[0])
+        rgb = texel_lookup(nb, image, (x_mu, 1.0, 0.0), (x_r, 1.0, 0.0), "sun columns %d" % index)
         for name, (img, ch) in sun.channel.items():
             if img == index:
-                columns[name] = sep.outputs[ch]
+                columns[name] = rgb[ch]
     # −τ per channel, then T; the sun's irradiance and the disc fraction folded in.
     minus_tau = [0.0, 0.0, 0.0]
     for name, ext in extinctions.items():
@@ -381,20 +389,10 @@ def sun_emission(nb, scatterers, extinctions, sun, irradiance_ws):
     psi = None
     ms_source = [0.0, 0.0, 0.0]
     if sun.ms_image is not None:
-        w, h = sun.ms_image.size
-        lo = sun.ms_mu_s_min
+        lo = sun.ms_mu_s_min  # x = (μs − lo)/(1 − lo)
         mu_s = nb.math("DIVIDE", r_mu, r)
-        uv = nb.node("ShaderNodeCombineXYZ")
-        nb.tree.links.new(nb.math("MULTIPLY_ADD", mu_s, (w - 1.0) / (w * (1.0 - lo)), (0.5 - lo * (w - 1.0) / (1.0 - lo)) / w),
-                          uv.inputs[0])
-        nb.tree.links.new(nb.math("MULTIPLY_ADD", x_r, (h - 1.0) / h, 0.5 / h), uv.inputs[1])
-        tex = nb.node("ShaderNodeTexImage", name="sun multiple scattering", label="sun multiple scattering",
-                      interpolation="Linear", extension="EXTEND")
-        tex.image = sun.ms_image
-        nb.tree.links.new(uv.outputs[0], tex.inputs["Vector"])
-        sep = nb.node("ShaderNodeSeparateXYZ")
-        nb.tree.links.new(tex.outputs["Color"], sep.inputs[0])
-        psi = [sep.outputs[ch] for ch in range(3)]
+        psi = texel_lookup(nb, sun.ms_image, (mu_s, 1.0 / (1.0 - lo), -lo / (1.0 - lo)), (x_r, 1.0, 0.0),
+                           "sun multiple scattering")
         for _cdesc, sigma_s, density in scatterers:
             for ch in range(3):
                 if sigma_s[ch] > 0.0:
