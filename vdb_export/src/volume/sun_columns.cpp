@@ -99,11 +99,10 @@ SunMsTable sun_ms_table(const Scene& scene, const VdbOptions& options, int mu_si
 
     const double L = layout.metres_per_unit;
     const double R = layout.planet_radius, top = layout.atmosphere_top;
-    const double H = std::sqrt(std::max(0.0, top * top - R * R));
     double psi[3];
     for (int j = 0; j < r_size; ++j) {
-        const double rho = H * double(j) / (r_size - 1);
-        const double altitude_m = (std::sqrt(rho * rho + R * R) - R) * L;
+        // The same altitude axis as the columns' table (its x_r; x_mu plays no part in r).
+        const double altitude_m = (sun_column_ray(R, top, 0.0, double(j) / (r_size - 1)).r - R) * L;
         for (int i = 0; i < mu_size; ++i) {
             MsPoint point;
             point.altitude_m = altitude_m;
