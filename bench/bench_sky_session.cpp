@@ -4,7 +4,7 @@
 // full-quality image of the same sun.
 //
 //   bench_sky_session [--preset earth] [--width 1024] [--threads 2] [--suns 8]
-//                     [--preview-samples 16] [--preview-grid 64] [--preview-ms-grid 16] [--preview-ms-samples 32]
+//                     [--preview-samples 16] [--preview-grid 32] [--preview-ms-grid 16] [--preview-ms-samples 32]
 //                     [--profile full|preview]  (only a session and --suns renders: for perf)
 //
 // Prints wall-clock times (std::chrono::steady_clock, median over the suns or repeats):
@@ -108,7 +108,7 @@ Error image_error(const std::vector<float>& a, const std::vector<float>& ref, in
 int main(int argc, char** argv) {
     std::string preset = "earth";
     std::string profile;  // "full" or "preview": only a session and --suns renders of that quality (for perf)
-    int width = 1024, threads = 2, suns = 8, pv_samples = 16, pv_grid = 64, pv_ms_grid = 16, pv_ms_samples = 32;
+    int width = 1024, threads = 2, suns = 8, pv_samples = 16, pv_grid = 32, pv_ms_grid = 16, pv_ms_samples = 32;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string k = argv[i];
         const char* v = argv[i + 1];

@@ -392,13 +392,13 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
     scene.sun.azimuth_deg = 33.0;  // not on a pixel-mirror axis
     for (double alt : {0.0, 10e3, 400e3}) {
         scene.observer.altitude_m = alt;
-        // 512 × 256: more pixels than the grid's 257 × 258 nodes, so the grid is used.
+        // 512 × 256: more pixels than the default grid's 41 × 41 × 2 nodes, so the grid is used.
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
         s.grid = 0;
         const FloatImage exact = render_sky(scene, s);
-        s.grid = 256;
-        ASSERT_EQ(effective_sky_grid(scene, s), 256);
+        s.grid = -1;
+        ASSERT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
         const FloatImage grid = render_sky(scene, s);
         std::vector<double> errs;
         double worst = 0;
@@ -418,11 +418,69 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
                 worst = std::max(worst, e);
             }
         std::sort(errs.begin(), errs.end());
-        // Measured: p95 ≤ 5e-4, max ≤ 2.1e-3 (10 km, where the horizon dips). A grid that blended
-        // sky into ground at the horizon would be off by tens of per cent there.
+        // Measured at the default grid (40; 2026-12-03): p95 1.5e-5 / 4.0e-5 / 5.1e-6, max 1.9e-3 /
+        // 5.1e-3 / 2.2e-3 on the ground / at 10 km (next to the dipped horizon) / in orbit. A grid
+        // that blended sky into ground at the horizon would be off by tens of per cent there.
         EXPECT_LT(errs[errs.size() * 95 / 100], 0.002) << "alt " << alt;
         EXPECT_LT(worst, 0.01) << "alt " << alt;
     }
+}
+
+TEST(SkyGrid, TheAureoleIsHeldOverItsPhaseFunctionEvenWithTwoAerosols) {
+    // The grid holds each radiance column's single scattering over that column's phase
+    // function (sky.cpp ColumnPhases) and multiplies it back per pixel,
+    // so the sharp forward peak is not interpolated. Measured within 15° of the sun against
+    // every pixel: the earth preset (one aerosol), then with a second, sharper aerosol in the
+    // same column, as dense and 100× thinner: the quotient (over the column's phase functions
+    // mixed by their optical depths) must take out whichever peak there is.
+    Scene scene = earth();
+    use_rgb(scene);
+    scene.sun.elevation_deg = 35.0;
+    scene.sun.azimuth_deg = 33.0;
+    const auto near_sun_error = [&](const Scene& sc) {
+        SkySettings s = small(512, 256);
+        s.view.sun_disc = false;
+        s.grid = 0;
+        const FloatImage exact = render_sky(sc, s);
+        s.grid = -1;
+        EXPECT_EQ(effective_sky_grid(sc, s), kSkyDefaultGrid);
+        const FloatImage grid = render_sky(sc, s);
+        const glm::dvec3 sun = sun_direction(sc.sun.elevation_deg, sc.sun.azimuth_deg);
+        double worst = 0.0;
+        for (int y = 0; y < s.height; ++y)
+            for (int x = 0; x < s.width; ++x) {
+                if (glm::dot(equirect_pixel_direction(x, y, s.width, s.height), sun) < std::cos(15.0 * kPi / 180.0))
+                    continue;
+                const float *a = grid.at(x, y), *b = exact.at(x, y);
+                const double yb = 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2];
+                for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(a[c]) - b[c]) / yb);
+            }
+        return worst;
+    };
+    // One aerosol (Cornette–Shanks, g = 0.8): its column factored.
+    const double one = near_sun_error(scene);
+    // A second aerosol beside it, as dense, sharper (Henyey–Greenstein g = 0.95).
+    auto mie = std::find_if(scene.constituents.begin(), scene.constituents.end(),
+                            [](const Constituent& c) { return c.name == "mie"; });
+    ASSERT_NE(mie, scene.constituents.end());
+    Constituent second = *mie;
+    second.name = "mie_sharp";
+    second.phase = PhaseFunction{PhaseFunction::Kind::henyey_greenstein, 0.95};
+    scene.constituents.push_back(second);
+    const double two = near_sun_error(scene);
+    // The sharper one 100× thinner: the column's mix is nearly the first's phase.
+    const auto scale = [](SpectralCoefficient& k, double f) {
+        k.value_per_m *= f;
+        for (auto& [nm, v] : k.table) v *= f;
+    };
+    scale(scene.constituents.back().scattering, 0.01);
+    scale(scene.constituents.back().absorption, 0.01);
+    const double thin = near_sun_error(scene);
+    // Measured (2026-12-03): 5.5e-6, 5.9e-6, 5.5e-6. Held over the sharper aerosol's phase
+    // alone, the two-aerosol column was 4.7e-3 off; over the first's, 0.16.
+    EXPECT_LT(one, 1e-4);
+    EXPECT_LT(two, 1e-4);
+    EXPECT_LT(thin, 1e-4);
 }
 
 TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
@@ -441,34 +499,36 @@ TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
     };
     s.grid = 0;
     const FloatImage every = render_sky(scene, s);
-    for (int g : {16384, 16383, 64, 8}) {  // 8: 9 × 5 × 2 = 90 nodes < 128 pixels
+    for (int g : {16384, 16383, 64, 8, 4}) {  // 8: 9 × 9 × 2 = 162 nodes ≥ 128 pixels; 4: 5 × 5 × 2 = 50
         s.grid = g;
-        const int want = g == 8 ? 8 : 0;
+        const int want = g == 4 ? 4 : 0;
         EXPECT_EQ(effective_sky_grid(scene, s), want) << "grid " << g;
-        if (g >= 64) {
+        if (g >= 8) {
             EXPECT_TRUE(same(render_sky(scene, s), every)) << "grid " << g;
         }
     }
-    s.grid = 8;
-    EXPECT_FALSE(same(render_sky(scene, s), every));  // the grid is used: interpolated pixels differ
-    // The boundary: grid 4 has 5 × 3 × 2 = 30 nodes; a 15 × 2 image 30 pixel rays (every pixel),
-    // 16 × 2 has 32 (the grid). The upper hemisphere halves the grid's nodes (sky rows only) and
-    // the image's rows.
     s.grid = 4;
-    s.width = 15, s.height = 2;
+    EXPECT_FALSE(same(render_sky(scene, s), every));  // the grid is used: interpolated pixels differ
+    // The boundary: grid 4 has 5 columns × 5 rows × 2 pieces = 50 nodes; a 25 × 2 image 50 pixel
+    // rays (every pixel), 26 × 2 has 52 (the grid). The upper hemisphere halves the grid's nodes
+    // (sky rows only) and the image's rows.
+    s.width = 25, s.height = 2;
     EXPECT_EQ(effective_sky_grid(scene, s), 0);
-    s.width = 16;
+    s.width = 26;
     EXPECT_EQ(effective_sky_grid(scene, s), 4);
-    s.region = SkyRegion::upper;  // 16 × 1 rows against 15 nodes
+    s.region = SkyRegion::upper;  // 26 × 1 rows against 25 nodes
     EXPECT_EQ(effective_sky_grid(scene, s), 4);
-    s.width = 15;
+    s.width = 25;
     EXPECT_EQ(effective_sky_grid(scene, s), 0);
     s.region = SkyRegion::full;
-    // The default (auto, 96: 9 506 nodes) on a 2048 × 1024 image, and every pixel at 128 × 64.
+    // The default (auto, 40: 41 × 41 × 2 = 3 362 nodes) on a 2048 × 1024 image and at 128 × 64
+    // (8 192 rays), every pixel at 64 × 32 (2 048).
     s.grid = -1;
     s.width = 2048, s.height = 1024;
     EXPECT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
     s.width = 128, s.height = 64;
+    EXPECT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
+    s.width = 64, s.height = 32;
     EXPECT_EQ(effective_sky_grid(scene, s), 0);
 
     // The multiple-scattering view likewise, against the rays the render evaluates.
@@ -488,8 +548,8 @@ TEST(SkyGrid, AGridWithAsManyRaysAsTheImageIsEveryPixelExactly) {
     s.multiple_grid = 2;  // 3 × 2 × 3 = 18 rays < 128 pixels: the view is used
     EXPECT_EQ(effective_sky_multiple_grid(scene, s), 2);
     EXPECT_FALSE(same(render_sky(scene, s, {}, &tables), per_ray));
-    // With the sky grid in use, against its nodes: 64 × 32 (2 048 pixels), grid 16 (17 × 18 =
-    // 306 nodes): a view of 8 (9 × 10 = 90 rays) is used, the default 32 (1 122) is not.
+    // With the sky grid in use, against its nodes: 64 × 32 (2 048 pixels), grid 16 (17 × 17 × 2 =
+    // 578 nodes): a view of 8 (9 × 10 = 90 rays) is used, the default 32 (1 122) is not.
     s.width = 64, s.height = 32;
     s.grid = 16;
     ASSERT_EQ(effective_sky_grid(scene, s), 16);
@@ -728,7 +788,7 @@ TEST(SkyCancel, ARequestedCancelStopsTheRenderAndReturnsNothing) {
     Scene scene = earth();
     use_rgb(scene);
     SkySettings s = small(256, 128);
-    s.grid = 0;  // per-pixel mode (the automatic grid of 96 would already be used at this size)
+    s.grid = 0;  // per-pixel mode (the automatic grid would already be used at this size)
     CancelFlag flag;
     std::atomic<std::size_t> rows{0};
     RenderHooks hooks;

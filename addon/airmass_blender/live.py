@@ -31,10 +31,10 @@ from .properties import make_spec
 
 TICK = 0.05     # s between looks at the sun
 SETTLE = 0.3    # s without a move before the full-quality image
-# The preview quality: sky grid 64, 16 view samples, multiple-scattering view 16 — at 1024 × 512
-# for `earth` 64 ms of CPU per sun (32 ms on each of 2 threads) against 230 ms for the full
-# quality, p95 0.66 % / max 3.9 % from it (bench/bench_sky_session.cpp, docs/sky.md).
-PREVIEW = {"grid": 64, "view_samples": 16, "multiple_grid": 16}
+# The preview quality: sky grid 32, 16 view samples, multiple-scattering view 16 — at 1024 × 512
+# for `earth` 31–47 ms of CPU per sun (17–25 ms wall on 2 threads) against 47–70 ms (25–37 ms)
+# for the full quality, p95 0.33 % / max 2.9 % from it (bench/bench_sky_session.cpp, docs/sky.md).
+PREVIEW = {"grid": 32, "view_samples": 16, "multiple_grid": 16}
 
 _state = {
     "session": None,      # (key, native.SkySession)

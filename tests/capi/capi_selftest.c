@@ -238,7 +238,7 @@ int main(int argc, char** argv) {
         small.width = 32;
         small.height = 16;
         small.view_samples = 4;
-        small.grid = 16;
+        small.grid = 8; /* 9 × 9 × 2 = 162 nodes < 512 rays: the grid is used */
         small.multiple_grid = 8;
         s = airmass_sky_session_render(session, &view, &small, buf, (size_t)32 * 16 * 4, NULL, NULL, msg, sizeof msg);
         check(s == AIRMASS_OK, "session render at a preview quality", msg);

@@ -92,11 +92,13 @@ struct SkySettings {
     int threads = 0;  // 0: all hardware threads (the table precompute's too)
     // Sky grid (Blender's precomputed-texture idea, with its error measured by
     // `airmass report sky`): evaluate the sky on a grid over (view zenith angle, azimuth
-    // from the sun) and interpolate every pixel from it (Catmull–Rom, sky_grid.hpp). By mirror symmetry the
-    // azimuth spans [0°, 180°] in `grid` intervals; the zenith angle has two pieces split
-    // exactly at the horizon (sky / ground, never interpolated across), each grid/2
-    // intervals, denser toward the horizon. 0: evaluate every pixel. −1 (auto): the grid
-    // of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than
+    // from the sun) and interpolate every pixel from it (Catmull–Rom, sky_grid.hpp
+    // SkyGridLayout::image). By mirror symmetry the azimuth spans [0°, 180°] in `grid`
+    // intervals, denser toward the sun; the zenith angle has two pieces split exactly at the
+    // horizon (sky / ground, never interpolated across), each `grid` intervals, far denser
+    // toward the horizon. The single scattering is held over each constituent's phase function
+    // and multiplied back per pixel (the aureole is not interpolated). 0: evaluate every
+    // pixel. −1 (auto): the grid of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than
     // the rays a per-pixel render evaluates (the region's pixels, halved by the mirror
     // symmetry when it applies); otherwise every pixel is evaluated (as grid 0: the grid's
     // own limit, exact and cheaper). effective_sky_grid says which.
@@ -122,7 +124,7 @@ struct SkySettings {
     int multiple_grid = kSkyDefaultMultipleGrid;
 };
 
-inline constexpr int kSkyDefaultGrid = 96;
+inline constexpr int kSkyDefaultGrid = 40;
 inline constexpr int kSkyMaxGrid = 16384;
 
 // Limits checked by validate(SkySettings).

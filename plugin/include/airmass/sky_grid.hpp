@@ -3,15 +3,26 @@
 //
 // Rows: two pieces of zenith angle meeting at the horizon — the sky above it, the ground
 // below — node 0 of each next to the horizon; the fraction f ∈ [0, 1] of a piece's span away
-// from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1), i.e. rows 5× denser at the
-// horizon than at the far end (c = 0.25). Nothing is interpolated across the horizon.
-// Columns: azimuth from the sun ψ ∈ [0, π] in `intervals` equal steps (the sky of a
-// spherically symmetric atmosphere is mirror-symmetric about the vertical plane through the
-// sun). Each node holds `channels` values (RGB for the image, one per wavelength for the
-// multiple-scattering view).
+// from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1): the row spacing next to
+// the horizon is c/(1 + c) of an even one's (SkyGridLayout::row_concentration c: 0.2 of it
+// for c = 0.25, 0.038 for c = 0.04). Nothing is interpolated across the horizon.
+// Columns: azimuth from the sun ψ ∈ [0, π] in `intervals` steps (the sky of a spherically
+// symmetric atmosphere is mirror-symmetric about the vertical plane through the sun), equal
+// or, with a column concentration c' > 0, ψ/π = x (|x| + c')/(1 + c') at x = j/G: the
+// spacing at the sun c'/(1 + c') of an even one's (odd in x, so the mirror at ψ = 0 stays
+// exact). Each node holds `channels`
+// values (RGB parts for the image, one per wavelength for the multiple-scattering view).
+//
+// The two layouts (SkyGridLayout): the multiple-scattering view's (M intervals, M/2 + 1 rows
+// per piece, c = 0.25, equal columns), and the sky image's (G intervals, G + 1 rows per piece,
+// c = 0.04, c' = 1). The image holds its single scattering over each column's phase function
+// (sky.cpp), so what it interpolates has no aureole; what is left sharp is the zenith angle
+// next to the horizon — hence its rows: twice as many, their spacing there 0.038 of an even
+// one's (docs/sky.md measures both).
 //
 // Interpolation is Catmull–Rom (cubic, C¹) in both grid coordinates: columns mirror at ψ = 0
-// and π (the sky's own symmetry, so the stencil there is exact), rows stay inside their piece
+// and π (the sky's own symmetry: exact at ψ = 0; at π exact for even columns and, with a
+// column concentration, right in value and slope with a third-order ghost node), rows stay inside their piece
 // with the node missing beyond a piece's end extrapolated linearly (v₋₁ = 2v₀ − v₁). Against
 // bilinear it takes the grid's p95 error down 5–7× at the same grid (docs/sky.md); a cubic may
 // overshoot below 0 next to a sharp feature, so callers clamp what must not be negative.
@@ -44,28 +55,46 @@ struct Horizon {
     }
 };
 
+// The shape of a grid: G azimuth intervals, the rows per piece, and where they concentrate.
+struct SkyGridLayout {
+    int intervals = 0;
+    int rows_per_piece = 0;
+    double row_concentration = 0.25;    // c: the row spacing at the horizon is c/(1 + c) of an even one's
+    double column_concentration = 0.0;  // c': the column spacing at the sun c'/(1 + c') of it; 0: even
+
+    // The multiple-scattering view of M intervals (evaluator.hpp MsView).
+    static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.25, 0.0}; }
+    // The sky image's grid of G intervals (sky.hpp SkySettings::grid).
+    static SkyGridLayout image(int G) { return {G, G + 1, 0.04, 1.0}; }
+    // Its rays: columns × rows, two pieces or one (the sky only).
+    double rays(bool one_piece) const { return double(intervals + 1) * rows_per_piece * (one_piece ? 1 : 2); }
+};
+
 struct SkyGrid {
-    static constexpr double kC = 0.25;
     // Nodes next to the horizon sit this far inside their piece so that the evaluator sees
     // an unambiguous sky or ground ray (the radiance is continuous up to the edge).
     static constexpr double kEdge = 1e-7;
     int intervals = 0;  // ψ intervals (G)
     int rows_sky = 0, rows_ground = 0;
     int channels = 0;
+    double c = 0.25;        // SkyGridLayout::row_concentration
+    double column_c = 0.0;  // SkyGridLayout::column_concentration
     Horizon hz;
     double sun_phi = 0.0;        // azimuth of the sun, atan2(s.y, s.x)
     std::vector<double> values;  // (rows_sky + rows_ground) × (G + 1) × channels
 
-    // A grid of G azimuth intervals and G/2 + 1 rows per piece (no ground rows when `sky_only`
-    // and the horizon is at or below 90°, i.e. an upper-hemisphere image of a ground observer).
-    static SkyGrid make(int G, const Horizon& hz, Vec3<double> sun, int channels, bool sky_only) {
+    // A grid of the layout's intervals and rows per piece (no ground rows when `sky_only` and
+    // the horizon is at or below 90°, i.e. an upper-hemisphere image of a ground observer).
+    static SkyGrid make(const SkyGridLayout& layout, const Horizon& hz, Vec3<double> sun, int channels, bool sky_only) {
         SkyGrid g;
-        g.intervals = G;
+        g.c = layout.row_concentration;
+        g.column_c = layout.column_concentration;
+        g.intervals = layout.intervals;
         g.hz = hz;
         g.channels = channels;
         g.sun_phi = std::atan2(sun.y, sun.x);
-        g.rows_sky = std::max(G / 2, 2) + 1;
-        g.rows_ground = sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : std::max(G / 2, 2) + 1;
+        g.rows_sky = std::max(layout.rows_per_piece, 2);
+        g.rows_ground = sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : g.rows_sky;
         g.values.assign(std::size_t(g.rows()) * g.columns() * channels, 0.0);
         return g;
     }
@@ -73,9 +102,17 @@ struct SkyGrid {
     int rows() const { return rows_sky + rows_ground; }
     int columns() const { return intervals + 1; }
 
-    static double f_of_x(double x) { return x * (x + kC) / (1.0 + kC); }
-    static double x_of_f(double f) { return 0.5 * (-kC + std::sqrt(kC * kC + 4.0 * (1.0 + kC) * f)); }
+    double f_of_x(double x) const { return x * (x + c) / (1.0 + c); }
+    double x_of_f(double f) const { return 0.5 * (-c + std::sqrt(c * c + 4.0 * (1.0 + c) * f)); }
 
+    // ψ/π of grid column coordinate x = j/G, and its inverse: odd in x (ψ(−x) = −ψ(x)), so the
+    // mirror at ψ = 0 is exact in grid coordinates.
+    double psi_fraction(double x) const {
+        return column_c > 0.0 ? x * (std::abs(x) + column_c) / (1.0 + column_c) : x;
+    }
+    double column_of_fraction(double f) const {
+        return column_c > 0.0 ? 0.5 * (-column_c + std::sqrt(column_c * column_c + 4.0 * (1.0 + column_c) * f)) : f;
+    }
     double sky_span() const { return hz.theta_horizon - hz.theta_space; }
     double ground_span() const { return std::numbers::pi - hz.theta_horizon; }
     // Zenith angle of grid row k (sky rows first).
@@ -99,7 +136,7 @@ struct SkyGrid {
     }
     // The unit direction of node (row k, column j).
     Vec3<double> node_direction(int k, int j) const {
-        const double theta = row_theta(k), phi = sun_phi + std::numbers::pi * j / intervals;
+        const double theta = row_theta(k), phi = sun_phi + std::numbers::pi * psi_fraction(double(j) / intervals);
         const double st = std::sin(theta);
         return {st * std::cos(phi), st * std::sin(phi), std::cos(theta)};
     }
@@ -129,7 +166,7 @@ struct SkyGrid {
     // row part, an image column its column part).
     void column(double phi, int& c0, double& wc) const {
         const double psi = std::abs(std::remainder(phi - sun_phi, 2.0 * std::numbers::pi));
-        const double fc = std::min(psi / std::numbers::pi, 1.0) * intervals;
+        const double fc = column_of_fraction(std::min(psi / std::numbers::pi, 1.0)) * intervals;
         c0 = std::min(static_cast<int>(fc), intervals - 1);
         wc = fc - c0;
     }

@@ -12,7 +12,8 @@
 //   add_scaled(a, b, s)          a += b · s       (τ += σt · m: one constituent's optical depth)
 //   add_product(a, b, c[, s])    a += b · c [· s], evaluated as (s · b) · c
 //   add_triple_product(a, b, c, d)  a += (b · c) · d, c of another element type
-//   exp_neg(a) / exp_neg(out, a) a = e^(−a)       (optical depth → transmittance)
+//   exp_neg(a) / exp_neg(out, a) a = e^(−a)       (optical depth → transmittance, libm's exp)
+//   exp_neg_nonneg(a)            a = e^(−a) for a ≥ 0 (a polynomial that vectorises; ≤ 1e-14)
 //   min(out, a, b), max(out, a, b), min(a, s), max(a, s), sum(a), average(a),
 //   min_value(a), max_value(a)
 //   Spectrum operators +, −, ·, / returning a new Spectrum (they allocate: not for kernels).
@@ -36,7 +37,9 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstddef>
 #include <initializer_list>
 #include <span>
@@ -372,6 +375,45 @@ inline void exp(A&& dst, SpectrumIn<A> b) {
     const auto a = as_view(dst);
     spectrum_detail::check("exp", a.size(), b.size());
     for (std::size_t w = 0; w < a.size(); ++w) a[w] = std::exp(b[w]);
+}
+
+// e^(−x) for x ≥ 0 (an optical depth), beyond 708 (+inf included) e^(−708) ≈ 3e-308: 2^n
+// by the 1.5·2^52 shift, r = −x − n ln2 with ln2 split in two (Cody–Waite: n·ln2_hi is exact),
+// the degree-11 Taylor polynomial on |r| ≤ ln2/2; relative error ≤ 1e-14 (tests/test_spectrum.cpp).
+// Branch-free and without float compares (the clamp compares the bits of non-negative
+// doubles, which order as their integers do; under the default -ftrapping-math a float
+// compare keeps a loop scalar), so a loop of it vectorises — libm's exp does not. Only for
+// x ≥ 0 and not NaN: the callers' optical depths are sums of non-negative terms.
+inline double exp_neg_nonneg(double x) {
+    const auto bits = [](double v) { return std::bit_cast<std::int64_t>(v); };
+    x = std::bit_cast<double>(std::min(bits(x), bits(708.0)));
+    constexpr double kShift = 6755399441055744.0;  // 1.5 · 2^52
+    const double shifted = x * -1.44269504088896341 + kShift;
+    const double n = shifted - kShift;
+    constexpr double kLn2Hi = 0.693147180369123816490;  // 32 significant bits: n · kLn2Hi is exact
+    constexpr double kLn2Lo = 1.90821492927058770002e-10;
+    const double r = n * -kLn2Lo + (n * -kLn2Hi - x);
+    double p = 1.0 / 39916800.0;
+    p = p * r + 1.0 / 3628800.0;
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    const std::int64_t ni = bits(shifted) - bits(kShift);  // n ∈ [−1022, 0]
+    return p * std::bit_cast<double>((ni + 1023) << 52);
+}
+// a = e^(−a) elementwise by exp_neg_nonneg (float spectra through double).
+template <class A>
+    requires(!std::is_arithmetic_v<std::remove_cvref_t<A>>)
+inline void exp_neg_nonneg(A&& dst) {
+    const auto a = as_view(dst);
+    for (std::size_t w = 0; w < a.size(); ++w) a[w] = static_cast<spectrum_value_t<A>>(exp_neg_nonneg(double(a[w])));
 }
 
 // Reductions, in wavelength order (sequential: the same sum on every target).

@@ -23,6 +23,7 @@
 #include "airmass/geometry.hpp"
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/optical_depth.hpp"
+#include "airmass/phase.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "airmass/sky_grid.hpp"
@@ -312,11 +313,10 @@ double pixel_rays(const glm::dvec3& sun, const SkySettings& settings) {
     return double(evaluated_columns(mirror_key(sun, settings.width), settings.width).size()) * image_rows;
 }
 
-// Rays of a sun-aligned grid of G intervals (sky_grid.hpp SkyGrid::make): G + 1 columns and
-// G/2 + 1 rows per piece, one piece (the sky) for an upper-hemisphere image.
-double grid_rays(int G, bool sky_only) {
-    return double(G + 1) * (std::max(G / 2, 2) + 1) * (sky_only ? 1 : 2);
-}
+// Rays of the image's grid of G intervals and of the multiple-scattering view of M
+// (sky_grid.hpp SkyGridLayout), one piece (the sky) for an upper-hemisphere image.
+double grid_rays(int G, bool sky_only) { return SkyGridLayout::image(G).rays(sky_only); }
+double view_rays(int M) { return SkyGridLayout::view(M).rays(false); }
 
 // settings.grid resolved for a sun (sky.hpp SkySettings::grid): a grid is used only when it
 // evaluates fewer rays than the pixels would (the mirror halves the rays of a per-pixel
@@ -335,14 +335,15 @@ int ms_grid_for(const glm::dvec3& sun, const SkySettings& settings) {
     if (M == 0) return 0;
     const int G = grid_for(sun, settings);
     const double evaluated = G > 0 ? grid_rays(G, settings.region == SkyRegion::upper) : pixel_rays(sun, settings);
-    return grid_rays(M, false) < evaluated ? M : 0;
+    return view_rays(M) < evaluated ? M : 0;
 }
 
 // The progress units of one image (render_frame reports exactly these): a unit per grid row
 // and per image row.
 std::size_t frame_work(const SkySettings& settings, int G, const Horizon& hz) {
     if (G <= 0) return std::size_t(settings.height);
-    const SkyGrid shape = SkyGrid::make(G, hz, Vec3<double>(0.0, 0.0, 1.0), 0, settings.region == SkyRegion::upper);
+    const SkyGrid shape =
+        SkyGrid::make(SkyGridLayout::image(G), hz, Vec3<double>(0.0, 0.0, 1.0), 0, settings.region == SkyRegion::upper);
     return std::size_t(shape.rows()) + std::size_t(settings.height);
 }
 
@@ -404,6 +405,51 @@ bool short_ground_ray(const Atmosphere& atm, double h0, double L, double sun_z) 
     return tau <= 0.05;
 }
 
+// The image grid's channels: RGB per node of the Rayleigh-like single scattering over its
+// phase function, the other constituents' over theirs, the multiple scattering (each over
+// 1 − T̄), and the ground's light (over T̄).
+constexpr int kGridChannels = 12;
+
+// The image grid holds each radiance column's single scattering (the evaluator's
+// Rayleigh-like and other constituents) over a phase function of that column, which each
+// pixel multiplies back at its own ν: exact for any positive function, and the quotient is
+// smooth when the function is the column's own mix — its constituents' phase functions
+// weighted by their scattering optical depths (a vertical column, summed over the
+// wavelengths). With one phase per column (the presets) the quotient has none of the phase's
+// shape left, and the aureole's forward peak is not interpolated.
+struct ColumnPhases {
+    struct Part {
+        PhaseFunction phase;
+        double weight;
+    };
+    std::vector<Part> r, m;
+    static ColumnPhases of(const Atmosphere& atm) {
+        ColumnPhases p;
+        const double top = atm.top_altitude_m;
+        for (const AtmosphereConstituent& c : atm.constituents) {
+            if (!c.scatters) continue;
+            constexpr int kSteps = 512;  // the trapezoid rule over [0, top]: a weight, not a value
+            double column = 0.0;
+            for (int k = 0; k <= kSteps; ++k)
+                column += (k == 0 || k == kSteps ? 0.5 : 1.0) * c.profile.at(top * k / kSteps);
+            column *= top / kSteps;
+            double sigma = 0.0;
+            for (double v : c.scattering_per_m) sigma += v;
+            if (column * sigma > 0.0) (c.rayleigh_like ? p.r : p.m).push_back({c.phase, column * sigma});
+        }
+        return p;
+    }
+    static double mix(const std::vector<Part>& parts, double nu) {
+        if (parts.empty()) return 1.0;
+        nu = std::clamp(nu, -1.0, 1.0);
+        double num = 0.0, den = 0.0;
+        for (const Part& q : parts) num += q.weight * phase(q.phase, nu), den += q.weight;
+        return num / den;
+    }
+    double rayleigh(double nu) const { return mix(r, nu); }
+    double mie(double nu) const { return mix(m, nu); }
+};
+
 // One image of a prepared sky (FrameContext: evaluator, colour map, sun, observer), with
 // progress reported as frame_work(settings, G, hz) units.
 FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, const RenderHooks& hooks) {
@@ -432,9 +478,9 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     };
     if (G > 0) {
         try {
-            grid = SkyGrid::make(G, hz, Vec3<double>(ctx.sun), 6, upper);  // RGB scattered, RGB ground
+            grid = SkyGrid::make(SkyGridLayout::image(G), hz, Vec3<double>(ctx.sun), kGridChannels, upper);
         } catch (const std::bad_alloc&) {
-            throw too_large("grid", G, grid_rays(G, upper) * 6.0);
+            throw too_large("grid", G, grid_rays(G, upper) * kGridChannels);
         }
     }
     const int grid_rows = grid.rows();
@@ -466,7 +512,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         try {
             view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), M, threads, hooks);
         } catch (const std::bad_alloc&) {
-            throw too_large("multiple_grid", M, grid_rays(M, false) * 2.0 * double(nw));
+            throw too_large("multiple_grid", M, view_rays(M) * 2.0 * double(nw));
         }
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate_with = [&](const Evaluator& ev, Scratch& s, std::size_t n) {
@@ -500,6 +546,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                                         : Evaluator(std::move(short_atm)));
         }
     }
+    const ColumnPhases phases = ColumnPhases::of(ctx.atmosphere());
     // The grid holds each node's light normalised by its view transmittance (as MsView does):
     // what is scattered along the ray over (1 − T̄), what comes from the ground over T̄, T̄ the
     // luminance-weighted mean of T(λ). A ray just below the horizon meets the ground hundreds
@@ -537,20 +584,24 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                     for (int j = 0; j < evaluated; ++j) s.dirs[j] = grid.node_direction(k, j);
                     evaluate_with(short_row[std::size_t(k)] ? *short_evaluator : ctx.evaluator, s,
                                   std::size_t(evaluated));
-                    std::vector<double> scattered(nw), ground(nw);
+                    std::vector<double> ground(nw);
                     for (int j = 0; j < cols; ++j) {
                         const std::size_t o = std::size_t(evaluated == 1 ? 0 : j) * nw;
-                        for (std::size_t w = 0; w < nw; ++w) {
-                            scattered[w] = s.rayleigh[o + w] + s.mie[o + w] + s.multiple_inscatter[o + w];
-                            ground[w] = s.radiance[o + w] - scattered[w];
-                        }
+                        for (std::size_t w = 0; w < nw; ++w)
+                            ground[w] = s.radiance[o + w] - (s.rayleigh[o + w] + s.mie[o + w] + s.multiple_inscatter[o + w]);
                         const double T = mean_transmittance(s.transmittance.data() + o);
-                        const Vec3d a = ctx.to_rgb.apply(scattered), b = ctx.to_rgb.apply(ground);
+                        const double nu = glm::dot(glm::dvec3(s.dirs[std::size_t(evaluated == 1 ? 0 : j)]), ctx.sun);
+                        const double scatter_norm = 1.0 - T > 1e-12 ? 1.0 / (1.0 - T) : 0.0;
+                        const Vec3d parts[4] = {
+                            ctx.to_rgb.apply(std::span<const double>(s.rayleigh.data() + o, nw)),
+                            ctx.to_rgb.apply(std::span<const double>(s.mie.data() + o, nw)),
+                            ctx.to_rgb.apply(std::span<const double>(s.multiple_inscatter.data() + o, nw)),
+                            ctx.to_rgb.apply(ground)};
+                        const double scale[4] = {scatter_norm / phases.rayleigh(nu), scatter_norm / phases.mie(nu),
+                                                 scatter_norm, T > 1e-300 ? 1.0 / T : 0.0};
                         double* out = grid.at(k, j);
-                        for (int c = 0; c < 3; ++c) {
-                            out[c] = 1.0 - T > 1e-12 ? a[c] / (1.0 - T) : 0.0;
-                            out[3 + c] = T > 1e-300 ? b[c] / T : 0.0;
-                        }
+                        for (int p = 0; p < 4; ++p)
+                            for (int c = 0; c < 3; ++c) out[3 * p + c] = parts[p][c] * scale[p];
                     }
                     report(1);
                 }
@@ -580,32 +631,40 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             double w[4];
         };
         std::vector<ColumnStencil> stencils(static_cast<std::size_t>(W));
+        std::vector<double> column_sun(static_cast<std::size_t>(W));  // sin θ · this, + cos θ s_z: ν of a pixel
         for (int x = 0; x < W; ++x) {
             int c0;
             double wc;
-            grid.column(kPi - kTwoPi * (x + 0.5) / W, c0, wc);
+            const double phi = kPi - kTwoPi * (x + 0.5) / W;
+            column_sun[std::size_t(x)] = std::cos(phi) * ctx.sun.x + std::sin(phi) * ctx.sun.y;
+            grid.column(phi, c0, wc);
             grid.column_stencil(c0, wc, stencils[std::size_t(x)].cols, stencils[std::size_t(x)].w);
         }
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
-                std::vector<double> line(std::size_t(grid.columns()) * 6);
+                std::vector<double> line(std::size_t(grid.columns()) * kGridChannels);
                 for (int y = int(rb); y < int(re); ++y) {
                     if (cancelled()) return;
                     if (y < image_rows) {
                         const double theta = kPi * (y + 0.5) / H;
                         const double T = row_transmittance[std::size_t(y)];
+                        const double st = std::sin(theta), ct = std::cos(theta);
                         SkyGrid::Cell cell;
-                        double v[6];
+                        double v[kGridChannels];
                         // The row part blended once per image row, then each pixel's column stencil.
                         if (grid.cell(theta, grid.sun_phi, cell)) {
                             grid.blend_row(cell, line);
                             for (int x = 0; x < W; ++x) {
                                 const ColumnStencil& cs = stencils[std::size_t(x)];
                                 grid.interpolate_line(line, cs.cols, cs.w, v);
+                                const double nu = st * column_sun[std::size_t(x)] + ct * ctx.sun.z;
+                                const double pr = phases.rayleigh(nu), pm = phases.mie(nu);
                                 float* px = image.at(x, y);
+                                // a cubic's overshoot is no light
                                 for (int ch = 0; ch < 3; ++ch)
-                                    px[ch] = static_cast<float>(std::max(v[ch], 0.0) * (1.0 - T) +
-                                                                std::max(v[3 + ch], 0.0) * T);  // a cubic's overshoot is no light
+                                    px[ch] = static_cast<float>(
+                                        std::max(v[ch] * pr + v[3 + ch] * pm + v[6 + ch], 0.0) * (1.0 - T) +
+                                        std::max(v[9 + ch], 0.0) * T);
                             }
                         }
                     }

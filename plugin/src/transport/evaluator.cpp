@@ -128,7 +128,7 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
                                     ": must be in [2, 16384]");
     const std::size_t nw = wavelength_count();
     MsView view{altitude_m, sun,
-                SkyGrid::make(intervals, Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m),
+                SkyGrid::make(SkyGridLayout::view(intervals), Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m),
                               sun, int(2 * nw), false)};
     if (!tables_) return view;
     SkyGrid& g = view.grid;
