@@ -419,6 +419,16 @@ void run_report(const Options& opt) {
 
     // ---- Markdown --------------------------------------------------------------------------
     std::ostringstream md;
+    // The sweep's grids that the accuracy images evaluate per pixel (sky.hpp: a grid only when it
+    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them).
+    std::string per_pixel_grids;
+    for (int g : grids)
+        if (SkyGridLayout::image(g).rays(false) >= double(W) * H / 2)
+            per_pixel_grids += (per_pixel_grids.empty() ? "" : ", ") + std::to_string(g);
+    const bool one = per_pixel_grids.find(',') == std::string::npos;
+    per_pixel_grids = per_pixel_grids.empty() ? "every grid of the sweep is used"
+                      : one ? "grid " + per_pixel_grids + " is evaluated per pixel"
+                            : "grids " + per_pixel_grids + " are evaluated per pixel";
     md << "Measured by `airmass report sky` (preset `" << opt.preset << "`, " << W << "×" << H
        << " full-sphere images, sun rotation 0°, no sun disc) against a converged reference computed in the same run: "
           "exact Chapman, "
@@ -434,8 +444,9 @@ void run_report(const Options& opt) {
           "\"grid: max near sun\" = the largest error of the grid against the same settings evaluated per pixel, "
           "over every pixel of a 1024×512 image within 10° of the sun (sun at 5°, 30°, 60°, 90°), where the "
           "aureole makes the sky vary fastest. A grid is used only when it has fewer nodes than the image has rays "
-          "(sky.hpp): on the 128×64 accuracy images (2 048 rays with the mirror) every grid above 24 is evaluated per "
-          "pixel, so its accuracy columns equal grid 0's, and its own error is the last column's.\n\n";
+          "(sky.hpp): on the "
+       << W << "×" << H << " accuracy images (" << W * H / 2 << " rays with the mirror) " << per_pixel_grids
+       << ", so their accuracy columns equal grid 0's, and their own error is the last column's.\n\n";
     // The default-settings check: `airmass sky` uses grid 0 for small images and the default
     // grid for large ones (SkySettings::grid = −1), so both must pass.
     bool all_pass = true, any = false;

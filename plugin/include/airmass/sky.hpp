@@ -96,8 +96,9 @@ struct SkySettings {
     // SkyGridLayout::image). By mirror symmetry the azimuth spans [0°, 180°] in `grid`
     // intervals, denser toward the sun; the zenith angle has two pieces split exactly at the
     // horizon (sky / ground, never interpolated across), each `grid` intervals, far denser
-    // toward the horizon. The single scattering is held over each constituent's phase function
-    // and multiplied back per pixel (the aureole is not interpolated). 0: evaluate every
+    // toward the horizon. Each radiance column's single scattering is held over its
+    // constituents' phase functions mixed by optical depth and multiplied back per pixel (the
+    // aureole is not interpolated). 0: evaluate every
     // pixel. −1 (auto): the grid of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than
     // the rays a per-pixel render evaluates (the region's pixels, halved by the mirror
     // symmetry when it applies); otherwise every pixel is evaluated (as grid 0: the grid's

@@ -414,8 +414,8 @@ constexpr int kGridChannels = 12;
 // Rayleigh-like and other constituents) over a phase function of that column, which each
 // pixel multiplies back at its own ν: exact for any positive function, and the quotient is
 // smooth when the function is the column's own mix — its constituents' phase functions
-// weighted by their scattering optical depths (a vertical column, summed over the
-// wavelengths). With one phase per column (the presets) the quotient has none of the phase's
+// weighted by their scattering optical depths (a vertical column from the ground to the top,
+// summed over the wavelengths). With one phase per column (the presets) the quotient has none of the phase's
 // shape left, and the aureole's forward peak is not interpolated.
 struct ColumnPhases {
     struct Part {
@@ -425,19 +425,32 @@ struct ColumnPhases {
     std::vector<Part> r, m;
     static ColumnPhases of(const Atmosphere& atm) {
         ColumnPhases p;
-        const double top = atm.top_altitude_m;
         for (const AtmosphereConstituent& c : atm.constituents) {
             if (!c.scatters) continue;
-            constexpr int kSteps = 512;  // the trapezoid rule over [0, top]: a weight, not a value
-            double column = 0.0;
-            for (int k = 0; k <= kSteps; ++k)
-                column += (k == 0 || k == kSteps ? 0.5 : 1.0) * c.profile.at(top * k / kSteps);
-            column *= top / kSteps;
             double sigma = 0.0;
             for (double v : c.scattering_per_m) sigma += v;
-            if (column * sigma > 0.0) (c.rayleigh_like ? p.r : p.m).push_back({c.phase, column * sigma});
+            const double w = vertical_column(c.profile, atm.top_altitude_m) * sigma;
+            if (std::isfinite(w) && w > 0.0) (c.rayleigh_like ? p.r : p.m).push_back({c.phase, w});
         }
         return p;
+    }
+    // ∫ ρ dh over [0, top], exactly: the exponential in closed form, the piecewise-linear
+    // profile by its knots clipped to [0, top] (a thin layer between any samples still counts).
+    static double vertical_column(const CompiledProfile& p, double top) {
+        if (!(top > 0.0)) return 0.0;
+        if (p.kind == CompiledProfile::Kind::exponential) {
+            const double H = p.scale_height_m;
+            return -H * std::expm1(-top / H) * std::exp(p.reference_altitude_m / H);
+        }
+        double sum = 0.0;
+        for (std::size_t i = 0; i + 1 < p.altitude_m.size(); ++i) {
+            const double x0 = p.altitude_m[i], x1 = p.altitude_m[i + 1], y0 = p.density[i], y1 = p.density[i + 1];
+            const double a = std::max(x0, 0.0), b = std::min(x1, top);
+            if (!(b > a) || !(x1 > x0)) continue;
+            const auto y = [&](double x) { return y0 + (y1 - y0) * (x - x0) / (x1 - x0); };
+            sum += 0.5 * (b - a) * (y(a) + y(b));
+        }
+        return sum;
     }
     static double mix(const std::vector<Part>& parts, double nu) {
         if (parts.empty()) return 1.0;
