@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <span>
 #include <string>
 
 #include "airmass/atomic_file.hpp"
@@ -53,6 +54,23 @@ TEST(AtomicFile, ReplacesWholeAndLeavesNoTemporary) {
     write_file_atomic(out, "new");
     EXPECT_EQ(read(out), "new");
     EXPECT_EQ(d.entries(), 1u);
+}
+
+TEST(AtomicFile, PiecesAreWrittenInOrderWithOrWithoutTheFlushToDisk) {
+    Folder d;
+    const fs::path out = d.path / "t.amt";
+    const std::string a = "head", b(5000, 'x'), c = "tail";
+    const auto bytes = [](const std::string& s) { return std::as_bytes(std::span<const char>(s.data(), s.size())); };
+    const std::span<const std::byte> pieces[] = {bytes(a), {}, bytes(b), bytes(c)};
+    for (const auto sync : {AtomicOutputs::Sync::to_disk, AtomicOutputs::Sync::none}) {
+        write_file_atomic(out, "previous");
+        AtomicOutputs o(nullptr, sync);
+        o.write(out, pieces);
+        EXPECT_EQ(read(out), "previous");  // nothing replaced before commit()
+        o.commit();
+        EXPECT_EQ(read(out), a + b + c);
+        EXPECT_EQ(d.entries(), 1u);  // no temporary left
+    }
 }
 
 TEST(AtomicFile, FailureOrCancelBeforeCommitKeepsThePreviousFile) {

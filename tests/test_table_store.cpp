@@ -76,6 +76,34 @@ TEST(TableStore, RecordRoundTripsBitForBit) {
     expect_same_tables(ms, *back);
 }
 
+// The record the disk cache writes: its pieces joined are serialize_tables' bytes, G goes to the
+// file from the tables themselves (no copy), and the checksum taken piece by piece — over
+// pieces whose sizes are not multiples of its 32-byte blocks — is the one a reader computes
+// over the whole payload (a record that reads back whole).
+TEST(TableStore, TheRecordsPiecesAreTheRecordWithTheTablesInPlace) {
+    const Atmosphere atm = small_earth();
+    const MsSettings s = small_tables();
+    const MultipleScattering ms = precompute_multiple_scattering(atm, s);
+    const std::string key = ms_table_key(atm, s);
+    const TableRecord record = table_record(ms, key);
+    ASSERT_GE(record.pieces.size(), 3u);
+    std::vector<std::byte> joined;
+    bool in_place = false, odd_size = false;
+    for (const auto& piece : record.pieces) {
+        joined.insert(joined.end(), piece.begin(), piece.end());
+        in_place |= piece.data() == reinterpret_cast<const std::byte*>(ms.phase_radiance.data()) &&
+                    piece.size() == ms.phase_radiance.size() * sizeof(float);
+        odd_size |= piece.size() % 32 != 0;
+    }
+    EXPECT_TRUE(in_place);
+    EXPECT_TRUE(odd_size);
+    EXPECT_EQ(record.size(), joined.size());
+    EXPECT_EQ(joined, serialize_tables(ms, key));
+    const auto back = deserialize_tables(joined, key);
+    ASSERT_TRUE(back.has_value());
+    expect_same_tables(ms, *back);
+}
+
 TEST(TableStore, KeyFollowsEveryInputOfThePrecomputeAndNothingElse) {
     const Atmosphere atm = small_earth();
     const MsSettings s = small_tables();

@@ -20,6 +20,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -49,9 +50,19 @@ std::size_t remove_stale_temporaries(const std::filesystem::path& dest);
 
 class AtomicOutputs {
 public:
+    // Whether commit() flushes the temporaries (and then the folder) to disk before and after
+    // the renames. `none` keeps the atomicity for readers of a running system (a reader sees
+    // the previous file or the whole new one) but not across a power loss or a system crash,
+    // after which a renamed file may be empty or partly written: only for files whose reader
+    // checks them and can do without them — the table cache (table_cache.hpp), whose entries
+    // carry their length and checksum and are rebuilt when they fail. An fsync of a 10 MB
+    // entry is ≈ 10 ms of a cold sky's wall time.
+    enum class Sync { to_disk, none };
+
     // `cancel` (may be null) is checked by write() and commit(): a requested cancel removes
     // every temporary and throws Cancelled before any destination is replaced.
-    explicit AtomicOutputs(const CancelFlag* cancel = nullptr) : cancel_(cancel) {}
+    explicit AtomicOutputs(const CancelFlag* cancel = nullptr, Sync sync = Sync::to_disk)
+        : cancel_(cancel), sync_(sync) {}
     ~AtomicOutputs();  // without commit(): removes every temporary
     AtomicOutputs(const AtomicOutputs&) = delete;
     AtomicOutputs& operator=(const AtomicOutputs&) = delete;
@@ -60,7 +71,9 @@ public:
     std::filesystem::path add(const std::filesystem::path& dest);
     // add(dest) and writes `bytes` to the temporary (FileWriteError if that fails).
     void write(const std::filesystem::path& dest, std::string_view bytes);
-    // fsyncs every temporary, then renames each onto its destination. FileWriteError or
+    // The same for content given as pieces, written one after the other.
+    void write(const std::filesystem::path& dest, std::span<const std::span<const std::byte>> pieces);
+    // fsyncs every temporary (Sync::to_disk), then renames each onto its destination. FileWriteError or
     // Cancelled on failure (the temporaries not yet renamed are removed).
     void commit();
 
@@ -68,6 +81,7 @@ private:
     void check_cancel();
     void discard() noexcept;
     const CancelFlag* cancel_;
+    Sync sync_;
     std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // (temporary, destination)
     bool done_ = false;
 };

@@ -4,7 +4,8 @@
 // Where: $AIRMASS_CACHE_DIR if set, else $XDG_CACHE_HOME/airmass, else ~/.cache/airmass
 // (%LOCALAPPDATA%\airmass\cache on Windows). One file per key, `ms-<FNV-1a of the key>.amt`,
 // written to a temporary beside it and renamed into place (a reader never sees half a file;
-// two processes writing the same entry leave one whole file). A read touches the file's
+// two processes writing the same entry leave one whole file) — not flushed to disk first: an
+// entry a power loss left empty or partial fails its checks like any corrupt one. A read touches the file's
 // time; after a write the oldest entries are removed until the folder holds at most
 // `max_bytes` (AIRMASS_CACHE_MAX_MB, default 1024). An entry that fails its checks
 // (table_store.hpp: another key, truncated, corrupt) is removed and the tables are

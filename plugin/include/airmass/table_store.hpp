@@ -17,6 +17,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <span>
@@ -41,6 +42,17 @@ std::uint64_t fnv1a64(std::string_view text);
 // The tables a renderer needs (G or Ψ, E_ms, the grid, slots, order information), with `key`
 // and a checksum, in this machine's byte order.
 std::vector<std::byte> serialize_tables(const MultipleScattering& tables, std::string_view key);
+
+// The same record as pieces to be written one after the other: the header and the small
+// fields held in `owned`, the large arrays (G, E_ms) referenced where they lie in `tables` —
+// nothing of a 10 MB table is copied before it reaches the file. Valid while `tables` lives
+// and is not changed.
+struct TableRecord {
+    std::vector<std::span<const std::byte>> pieces;
+    std::deque<std::vector<std::byte>> owned;
+    std::size_t size() const;
+};
+TableRecord table_record(const MultipleScattering& tables, std::string_view key);
 
 // The tables in `bytes` if they are a whole, uncorrupted record of this format with exactly
 // `key`; std::nullopt otherwise (foreign, truncated, corrupt, older format).

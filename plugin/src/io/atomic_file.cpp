@@ -53,20 +53,23 @@ long temporary_pid(const fs::path& dest, const std::string& name) {
     return std::stol(std::string(mid.substr(0, dash)));
 }
 
-// Writes all of `bytes` to a new file `path` (O_EXCL), closes it; errno on failure (0: ok).
-int write_new_file(const fs::path& path, std::string_view bytes) {
+// Writes all of `pieces`, one after the other, to a new file `path` (O_EXCL), closes it;
+// errno on failure (0: ok).
+int write_new_file(const fs::path& path, std::span<const std::span<const std::byte>> pieces) {
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) return errno;
-    std::size_t done = 0;
     int err = 0;
-    while (done < bytes.size()) {
-        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            err = errno;
-            break;
+    for (const auto& bytes : pieces) {
+        std::size_t done = 0;
+        while (err == 0 && done < bytes.size()) {
+            const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+            if (n < 0) {
+                if (errno == EINTR) continue;
+                err = errno;
+                break;
+            }
+            done += std::size_t(n);
         }
-        done += std::size_t(n);
     }
     if (::close(fd) != 0 && err == 0) err = errno;
     return err;
@@ -97,7 +100,7 @@ void check_output_destination(const fs::path& dest) {
         throw FileWriteError("cannot write '" + dest.string() + "': directory '" + dir.string() + "' does not exist");
     if (fs::is_directory(dest, ec)) throw FileWriteError("cannot write '" + dest.string() + "': it is a directory");
     const fs::path probe = temporary_for(dest);
-    const int err = write_new_file(probe, {});
+    const int err = write_new_file(probe, std::span<const std::span<const std::byte>>());  // empty
     if (err != 0)
         throw FileWriteError("cannot write '" + dest.string() + "': directory '" + dir.string() +
                              "' is not writable (" + errno_text(err) + ")");
@@ -148,9 +151,14 @@ fs::path AtomicOutputs::add(const fs::path& dest) {
 }
 
 void AtomicOutputs::write(const fs::path& dest, std::string_view bytes) {
+    const std::span<const std::byte> piece(reinterpret_cast<const std::byte*>(bytes.data()), bytes.size());
+    write(dest, std::span<const std::span<const std::byte>>(&piece, 1));
+}
+
+void AtomicOutputs::write(const fs::path& dest, std::span<const std::span<const std::byte>> pieces) {
     check_cancel();
     const fs::path tmp = add(dest);
-    if (const int err = write_new_file(tmp, bytes); err != 0) {
+    if (const int err = write_new_file(tmp, pieces); err != 0) {
         discard();
         throw FileWriteError("cannot write '" + dest.string() + "': " + errno_text(err));
     }
@@ -159,7 +167,7 @@ void AtomicOutputs::write(const fs::path& dest, std::string_view bytes) {
 void AtomicOutputs::commit() {
     check_cancel();
     for (const auto& [tmp, dest] : files_)
-        if (const int err = sync_file(tmp); err != 0) {
+        if (const int err = sync_ == Sync::to_disk ? sync_file(tmp) : 0; err != 0) {
             discard();
             throw FileWriteError("cannot write '" + dest.string() + "': " + errno_text(err));
         }
@@ -176,6 +184,7 @@ void AtomicOutputs::commit() {
         }
     }
     done_ = true;
+    if (sync_ == Sync::none) return;
     // The renames themselves reach the disk with the folder (best effort: some refuse it).
     fs::path synced;
     for (const auto& f : files_) {

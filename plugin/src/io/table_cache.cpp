@@ -159,14 +159,16 @@ void DiskTableStore::store(std::string_view key, const MultipleScattering& table
         problem_ = "cannot create the table cache folder '" + dir_.string() + "': " + ec.message();
         return;
     }
-    const std::vector<std::byte> bytes = serialize_tables(tables, key);
-    if (bytes.size() > max_bytes_) return;  // would be evicted at once
+    // The record's arrays go to the file from where they lie (no 10 MB copy).
+    const TableRecord record = table_record(tables, key);
+    if (record.size() > max_bytes_) return;  // would be evicted at once
     const fs::path path = entry_path(key);
     try {
         // The one atomic writer (a reader never sees a part; a killed run's temporary is
-        // removed by the next store of the same entry).
-        AtomicOutputs out;
-        out.write(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+        // removed by the next store of the same entry), without fsync: an entry a crash left
+        // empty or partial fails its length or checksum and is rebuilt, like any corrupt one.
+        AtomicOutputs out(nullptr, AtomicOutputs::Sync::none);
+        out.write(path, record.pieces);
         out.commit();
     } catch (const FileWriteError& e) {
         problem_ = std::string("table cache: ") + e.what();

@@ -68,6 +68,43 @@ private:
     std::vector<std::byte> bytes_;
 };
 
+// Writes a record's payload as TableRecord pieces: small fields copied into owned chunks, large
+// arrays referenced where they lie (TableRecord::pieces).
+class PieceWriter {
+public:
+    explicit PieceWriter(TableRecord& record) : record_(record) { record_.owned.emplace_back(); }
+    template <class T>
+    void put(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        const auto* p = reinterpret_cast<const std::byte*>(&v);
+        chunk().insert(chunk().end(), p, p + sizeof(T));
+    }
+    template <class T>
+    void put_vector(const std::vector<T>& v) {
+        put<std::uint64_t>(v.size());
+        const std::size_t n = v.size() * sizeof(T);
+        if (n < kBorrowFrom) {
+            const auto* p = reinterpret_cast<const std::byte*>(v.data());
+            if (n > 0) chunk().insert(chunk().end(), p, p + n);
+            return;
+        }
+        close_chunk();
+        record_.pieces.emplace_back(reinterpret_cast<const std::byte*>(v.data()), n);
+    }
+    // Ends the last chunk; the pieces are complete.
+    void finish() { close_chunk(); }
+
+private:
+    static constexpr std::size_t kBorrowFrom = 4096;
+    std::vector<std::byte>& chunk() { return record_.owned.back(); }
+    void close_chunk() {
+        if (chunk().empty()) return;
+        record_.pieces.emplace_back(chunk().data(), chunk().size());
+        record_.owned.emplace_back();  // a deque: the closed chunk's bytes stay where they are
+    }
+    TableRecord& record_;
+};
+
 // Asks the system to back the 2 MB-aligned part of fresh, untouched storage with huge pages
 // (Linux transparent huge pages in "madvise" mode): a 10 MB table then costs a handful of page
 // faults instead of 2 500 — most of the time of reading it from a mapped file. A hint only:
@@ -156,25 +193,59 @@ namespace {
 // The records' checksum: fnv1a64's word step in four independent lanes over 32-byte blocks
 // (the lanes' multiplications overlap: ≈ 4× its speed, a 10 MB table in well under a
 // millisecond), the lanes and the tail folded in by the same step. It detects corruption; it
-// is not a cryptographic hash.
-std::uint64_t payload_checksum(std::span<const std::byte> bytes) {
-    const auto step = [](std::uint64_t h, std::uint64_t word) {
+// is not a cryptographic hash. Fed in pieces of any sizes, it gives the value of the bytes
+// joined (a record is written from its pieces, read back whole).
+class PayloadChecksum {
+public:
+    void update(std::span<const std::byte> bytes) {
+        size_ += bytes.size();
+        if (held_ > 0) {  // complete the block begun by the last piece
+            const std::size_t n = std::min(bytes.size(), std::size_t(32) - held_);
+            std::memcpy(block_ + held_, bytes.data(), n);
+            held_ += n;
+            bytes = bytes.subspan(n);
+            if (held_ < 32) return;
+            blocks(std::span<const std::byte>(block_, 32));
+            held_ = 0;
+        }
+        const std::size_t whole = bytes.size() / 32 * 32;
+        blocks(bytes.first(whole));
+        held_ = bytes.size() - whole;
+        if (held_ > 0) std::memcpy(block_, bytes.data() + whole, held_);
+    }
+    std::uint64_t value() const {
+        std::uint64_t h = step(step(step(step(0xcbf29ce484222325ull, lane_[0]), lane_[1]), lane_[2]), lane_[3]);
+        h = step(h, std::uint64_t(size_));
+        for (std::size_t i = 0; i < held_; ++i) h = step(h, std::uint64_t(block_[i]));
+        return h;
+    }
+
+private:
+    static std::uint64_t step(std::uint64_t h, std::uint64_t word) {
         h ^= word;
         h *= 0x100000001b3ull;
         return h ^ (h >> 29);
-    };
-    std::uint64_t lane[4] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull, 0x9e3779b97f4a7c15ull,
-                             0xc2b2ae3d27d4eb4full};
-    std::size_t i = 0;
-    for (; i + 32 <= bytes.size(); i += 32) {
-        std::uint64_t w[4];
-        std::memcpy(w, bytes.data() + i, 32);
-        for (int l = 0; l < 4; ++l) lane[l] = step(lane[l], w[l]);
     }
-    std::uint64_t h = step(step(step(step(0xcbf29ce484222325ull, lane[0]), lane[1]), lane[2]), lane[3]);
-    h = step(h, std::uint64_t(bytes.size()));
-    for (; i < bytes.size(); ++i) h = step(h, std::uint64_t(bytes[i]));
-    return h;
+    void blocks(std::span<const std::byte> bytes) {
+        std::uint64_t lane[4] = {lane_[0], lane_[1], lane_[2], lane_[3]};
+        for (std::size_t i = 0; i + 32 <= bytes.size(); i += 32) {
+            std::uint64_t w[4];
+            std::memcpy(w, bytes.data() + i, 32);
+            for (int l = 0; l < 4; ++l) lane[l] = step(lane[l], w[l]);
+        }
+        std::memcpy(lane_, lane, sizeof lane);
+    }
+    std::uint64_t lane_[4] = {0xcbf29ce484222325ull, 0x84222325cbf29ce4ull, 0x9e3779b97f4a7c15ull,
+                              0xc2b2ae3d27d4eb4full};
+    std::byte block_[32] = {};
+    std::size_t held_ = 0;
+    std::size_t size_ = 0;
+};
+
+std::uint64_t payload_checksum(std::span<const std::byte> bytes) {
+    PayloadChecksum c;
+    c.update(bytes);
+    return c.value();
 }
 
 constexpr std::size_t padding_to_8(std::size_t n) { return (8 - n % 8) % 8; }
@@ -227,8 +298,16 @@ std::string ms_table_key(const Atmosphere& atm, const MsSettings& s) {
     return std::string(reinterpret_cast<const char*>(b.data()), b.size());
 }
 
-std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::string_view key) {
-    Writer p;
+std::size_t TableRecord::size() const {
+    std::size_t n = 0;
+    for (const auto& p : pieces) n += p.size();
+    return n;
+}
+
+TableRecord table_record(const MultipleScattering& ms, std::string_view key) {
+    // The payload first (the header holds its length and checksum), then the header in front.
+    TableRecord payload;
+    PieceWriter p(payload);
     p.put(static_cast<std::int32_t>(ms.mode));
     p.put(static_cast<std::int32_t>(ms.grid.parameterisation));
     p.put(ms.grid.size);
@@ -254,6 +333,9 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
     p.put(static_cast<std::uint8_t>(ms.tail_added));
     p.put_vector(ms.tail_ratio);
     p.put(ms.precompute_seconds);
+    p.finish();
+    PayloadChecksum checksum;
+    for (const auto& piece : payload.pieces) checksum.update(piece);
 
     Writer r;
     r.put_bytes(kMagic, sizeof kMagic);
@@ -261,11 +343,22 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
     r.put(kByteOrderMark);
     r.put_string(key);
     r.put_bytes(std::array<std::byte, 8>{}.data(), padding_to_8(r.bytes().size()));
-    const std::vector<std::byte>& payload = p.bytes();
     r.put<std::uint64_t>(payload.size());
-    r.put(payload_checksum(payload));
-    r.put_bytes(payload.data(), payload.size());
-    return std::move(r.bytes());
+    r.put(checksum.value());
+    TableRecord record;
+    record.owned = std::move(payload.owned);  // a deque's move keeps its elements where they are
+    record.owned.push_back(std::move(r.bytes()));
+    record.pieces.emplace_back(record.owned.back().data(), record.owned.back().size());
+    record.pieces.insert(record.pieces.end(), payload.pieces.begin(), payload.pieces.end());
+    return record;
+}
+
+std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::string_view key) {
+    const TableRecord record = table_record(ms, key);
+    std::vector<std::byte> bytes;
+    bytes.reserve(record.size());
+    for (const auto& piece : record.pieces) bytes.insert(bytes.end(), piece.begin(), piece.end());
+    return bytes;
 }
 
 std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key) {
