@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <initializer_list>
 #include <numbers>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -406,6 +407,59 @@ TEST(MultipleScatteringLookups, FiniteAndNonNegativeAtExtremes) {
                 const Radiance r = radiance(earth(), ms, view(alt, sun, el, 37.0));
                 for (double v : r.multiple) EXPECT_TRUE(std::isfinite(v) && v >= 0.0) << alt << " " << el << " " << sun;
             }
+}
+
+// A row of rays sharing one zenith angle (the multiple-scattering view's rows) through one
+// quadrature gives each ray what multiple_scattering_radiance gives it alone — the in-scatter,
+// the ground's part and order 1 — at twilight, by day, below the horizon and from orbit, at
+// the zenith and the nadir (one direction: a row of one), with a zero-length direction in
+// the row adding nothing; rays of another zenith angle are refused, naming the ray.
+TEST(MultipleScatteringLookups, ARowOfRaysIsEachRayAlone) {
+    const Atmosphere& atm = earth();
+    const MultipleScattering& ms = earth_ms();
+    const std::size_t nw = atm.wavelength_count();
+    for (double alt : {2.0, 10e3, 400e3})
+        for (double el : {90.0, 30.0, 0.5, 0.0, -0.3, -20.0, -90.0})
+            for (double sun_el : {60.0, 2.0, -4.0}) {
+                const Vec3<double> sun = direction_from_elevation_azimuth_deg<double>(sun_el, 0.0);
+                std::vector<Vec3<double>> dirs;
+                const int n = std::abs(el) == 90.0 ? 1 : 9;
+                for (int j = 0; j < n; ++j) dirs.push_back(direction_from_elevation_azimuth_deg<double>(el, 22.5 * j));
+                if (n > 1) dirs.push_back({0.0, 0.0, 0.0});
+                const std::size_t nr = dirs.size();
+                std::vector<double> r(nr * nw, -1.0), m(nr * nw, -1.0), t(nr * nw, -1.0), o(nr * nw, -1.0);
+                multiple_scattering_radiance_row(atm, ms, alt, dirs, sun, {r, m, t, o}, 48);
+                for (std::size_t k = 0; k < nr; ++k) {
+                    std::vector<double> r1(nw), m1(nw), t1(nw), o1(nw);
+                    multiple_scattering_radiance(atm, ms, ViewRay{alt, dirs[k], sun}, {r1, m1, t1, o1}, 48);
+                    for (std::size_t w = 0; w < nw; ++w) {
+                        const double scale = std::max(t1[w] + o1[w], 1e-300);
+                        EXPECT_NEAR(r[k * nw + w], r1[w], 1e-9 * scale) << alt << " " << el << " " << sun_el << " " << k;
+                        EXPECT_NEAR(m[k * nw + w], m1[w], 1e-9 * scale) << alt << " " << el << " " << sun_el << " " << k;
+                        EXPECT_NEAR(t[k * nw + w], t1[w], 1e-9 * scale) << alt << " " << el << " " << sun_el << " " << k;
+                        EXPECT_NEAR(o[k * nw + w], o1[w], 1e-9 * scale) << alt << " " << el << " " << sun_el << " " << k;
+                    }
+                }
+                if (n > 1 && el > 0.0 && sun_el > 0.0 && alt < atm.top_altitude_m) {  // the rays differ: not one ray repeated
+                    EXPECT_GT(std::abs(t[0] - t[(n - 1) / 2 * nw]), 1e-4 * t[0]) << alt << " " << el << " " << sun_el;
+                }
+                for (std::size_t w = 0; w < nw; ++w) EXPECT_EQ(t[(nr - 1) * nw + w], n > 1 ? 0.0 : t[w]);
+            }
+    const Vec3<double> sun{0.0, 0.0, 1.0};
+    const std::vector<Vec3<double>> mixed = {direction_from_elevation_azimuth_deg<double>(10.0, 0.0),
+                                             direction_from_elevation_azimuth_deg<double>(10.0, 90.0),
+                                             direction_from_elevation_azimuth_deg<double>(10.001, 0.0)};
+    std::vector<double> a(3 * nw), b(3 * nw), c(3 * nw);
+    try {
+        multiple_scattering_radiance_row(atm, ms, 2.0, mixed, sun, {a, b, c}, 32);
+        ADD_FAILURE() << "a row of two zenith angles was accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("view_directions[2]"), std::string::npos) << e.what();
+    }
+    std::vector<double> short_out(nw);
+    EXPECT_THROW(multiple_scattering_radiance_row(atm, ms, 2.0, std::span(mixed).first(2), sun,
+                                                  {short_out, short_out, short_out}, 32),
+                 std::invalid_argument);
 }
 
 TEST(MultipleScatteringLookups, EveryParameterisationAgrees) {

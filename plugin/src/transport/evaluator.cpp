@@ -136,25 +136,33 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
     // nadir, whose sin θ rounds to 1.2e-16): its column 0 is integrated and copied.
     std::vector<unsigned char> polar(std::size_t(g.rows()), 0);
     for (int k = 0; k < g.rows(); ++k) polar[std::size_t(k)] = std::abs(std::sin(g.row_theta(k))) < 1e-12;
-    parallel_for(0, std::size_t(g.rows()) * g.columns(), 16, threads, [&](std::size_t b, std::size_t e, int) {
-        MsScratch scratch(nw);
-        std::vector<double> T(nw);
-        for (std::size_t n = b; n < e; ++n) {
+    // A row's rays share their zenith angle, so one quadrature serves the row
+    // (multiple_scattering_radiance_row) and one view transmittance T (T depends on the
+    // zenith angle alone).
+    parallel_for(0, std::size_t(g.rows()), 1, threads, [&](std::size_t b, std::size_t e, int) {
+        const std::size_t cols = std::size_t(g.columns());
+        std::vector<Vec3<double>> dirs(cols);
+        std::vector<double> T(nw), rayleigh(cols * nw), mie(cols * nw), total(cols * nw);
+        for (std::size_t kk = b; kk < e; ++kk) {
             if (hooks.cancel && hooks.cancel->requested()) return;
-            const int k = int(n / g.columns()), j = int(n % g.columns());
-            if (j > 0 && polar[std::size_t(k)]) continue;
-            const ViewRay vr{altitude_m, g.node_direction(k, j), sun};
+            const int k = int(kk);
+            const std::size_t n = polar[kk] ? 1 : cols;
+            for (std::size_t j = 0; j < n; ++j) dirs[j] = g.node_direction(k, int(j));
             // Its view transmittance only (the numbers single scattering would give, without
             // the in-scatter it would also integrate).
-            view_transmittance_batch(atmosphere_, altitude_m, std::span<const Vec3<double>>(&vr.view_direction, 1), T);
-            multiple_scattering_radiance(atmosphere_, *tables_, vr, {scratch.rayleigh, scratch.mie, scratch.total},
-                                         ms_view_samples_);
-            double* node = g.at(k, j);
-            for (std::size_t w = 0; w < nw; ++w) {
-                const double inscatter = scratch.rayleigh[w] + scratch.mie[w];
-                const double ground = scratch.total[w] - inscatter;
-                node[w] = 1.0 - T[w] > 1e-12 ? inscatter / (1.0 - T[w]) : 0.0;
-                node[nw + w] = T[w] > 1e-300 ? ground / T[w] : 0.0;
+            view_transmittance_batch(atmosphere_, altitude_m, std::span<const Vec3<double>>(dirs.data(), 1), T);
+            multiple_scattering_radiance_row(atmosphere_, *tables_, altitude_m,
+                                             std::span<const Vec3<double>>(dirs.data(), n), sun,
+                                             {rayleigh, mie, total}, ms_view_samples_);
+            for (std::size_t j = 0; j < n; ++j) {
+                double* node = g.at(k, int(j));
+                const std::size_t o = j * nw;
+                for (std::size_t w = 0; w < nw; ++w) {
+                    const double inscatter = rayleigh[o + w] + mie[o + w];
+                    const double ground = total[o + w] - inscatter;
+                    node[w] = 1.0 - T[w] > 1e-12 ? inscatter / (1.0 - T[w]) : 0.0;
+                    node[nw + w] = T[w] > 1e-300 ? ground / T[w] : 0.0;
+                }
             }
         }
     });

@@ -71,4 +71,11 @@ void multiple_scattering_radiance(const Atmosphere& atm, const MultipleScatterin
     AIRMASS_SIMD_RETURN(multiple_scattering_radiance_impl(atm, ms, vr, out, samples));
 }
 
+void multiple_scattering_radiance_row(const Atmosphere& atm, const MultipleScattering& ms, double altitude_m,
+                                      std::span<const Vec3<double>> view_directions, Vec3<double> sun_direction,
+                                      MsRadianceOut out, int samples) {
+    AIRMASS_SIMD_RETURN(
+        multiple_scattering_radiance_row_impl(atm, ms, altitude_m, view_directions, sun_direction, out, samples));
+}
+
 }  // namespace airmass
