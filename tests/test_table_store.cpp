@@ -271,6 +271,29 @@ TEST(DiskTableStore, KeepsReadsReplacesBadEntriesAndStaysUnderItsBound) {
     EXPECT_EQ(store.last_load(), DiskTableStore::Outcome::hit);
     expect_same_tables(ms, *back);
 
+    // G is read in place, from the entry's mapped file (Linux: the mapping that holds it in
+    // /proc/self/maps), and the tables stay whole after the entry is removed and replaced
+    // (the cache only ever renames over or unlinks an entry: the mapping keeps its file).
+    {
+        std::ifstream maps("/proc/self/maps");
+        const auto at = reinterpret_cast<std::uintptr_t>(back->phase_radiance.data());
+        std::string line, holder;
+        while (std::getline(maps, line)) {
+            unsigned long long lo = 0, hi = 0;
+            if (std::sscanf(line.c_str(), "%llx-%llx", &lo, &hi) == 2 && at >= lo && at < hi) holder = line;
+        }
+        EXPECT_NE(holder.find(store.entry_path(key).filename().string()), std::string::npos)
+            << "G is not in the entry's mapping: " << holder;
+        const auto kept = store.load(key);
+        ASSERT_NE(kept, nullptr);
+        fs::remove(store.entry_path(key));
+        MsSettings s3 = s;
+        s3.max_order = 3;
+        store.store(key, precompute_multiple_scattering(atm, s3));  // another file under the same name
+        expect_same_tables(ms, *kept);
+    }
+    store.store(key, ms);
+
     // A corrupted entry is refused, removed, and not trusted.
     {
         std::fstream f(store.entry_path(key), std::ios::in | std::ios::out | std::ios::binary);

@@ -49,6 +49,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -196,6 +197,38 @@ struct MsOrderInfo {
     double tail_corrected_change = 0.0;
 };
 
+// An immutable array of floats whose memory is shared by every copy: the G table of
+// MultipleScattering. Either its own (made from a vector: a precompute) or memory another
+// object owns and this array keeps alive — a table-cache entry mapped from disk, read in place
+// rather than copied into fresh pages (table_store.hpp deserialize_tables): a 10 MB table is
+// then one checksum pass, not also a copy and the kernel's zeroing of 10 MB of new pages.
+class SharedFloats {
+public:
+    using value_type = float;
+    using iterator = const float*;
+    using const_iterator = const float*;
+
+    SharedFloats() = default;
+    explicit SharedFloats(std::vector<float> values);
+    // `count` floats at `data`, which stay valid while `owner` lives.
+    SharedFloats(const float* data, std::size_t count, std::shared_ptr<const void> owner)
+        : owner_(std::move(owner)), data_(data), size_(count) {}
+
+    const float* data() const { return data_; }
+    std::size_t size() const { return size_; }
+    bool empty() const { return size_ == 0; }
+    const float& operator[](std::size_t i) const { return data_[i]; }
+    const float* begin() const { return data_; }
+    const float* end() const { return data_ + size_; }
+    // Element by element (not the same memory).
+    friend bool operator==(const SharedFloats& a, const SharedFloats& b);
+
+private:
+    std::shared_ptr<const void> owner_;
+    const float* data_ = nullptr;
+    std::size_t size_ = 0;
+};
+
 // The precomputed multiple scattering of one Atmosphere (same wavelengths). A value type;
 // lookups are const and thread-safe.
 struct MultipleScattering {
@@ -206,8 +239,8 @@ struct MultipleScattering {
     // For each constituent of the Atmosphere: its slot in the G table, or −1 if it does not scatter.
     std::vector<int> slot;
     std::size_t slot_count = 0;
-    // orders: G[node][slot][λ]; isotropic_lut: Ψ[altitude][sun][λ] (one slot).
-    std::vector<float> phase_radiance;
+    // orders: G[node][slot][λ]; isotropic_lut: Ψ[altitude][sun][λ] (one slot). ln of the values.
+    SharedFloats phase_radiance;
     std::vector<float> ground_irradiance;  // E_ms[sun][λ]
     std::vector<float> radiance;           // Σ L^k[node][λ] when MsSettings::keep_radiance
     std::vector<MsOrderInfo> orders;        // orders 2 … K computed (order 1 is exact)

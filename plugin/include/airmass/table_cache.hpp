@@ -5,7 +5,12 @@
 // (%LOCALAPPDATA%\airmass\cache on Windows). One file per key, `ms-<FNV-1a of the key>.amt`,
 // written to a temporary beside it and renamed into place (a reader never sees half a file;
 // two processes writing the same entry leave one whole file) — not flushed to disk first: an
-// entry a power loss left empty or partial fails its checks like any corrupt one. A read touches the file's
+// entry a power loss left empty or partial fails its checks like any corrupt one. An entry is
+// checked whole when it is read and its G table is then used in place, from the mapped file
+// (MultipleScattering::phase_radiance keeps the mapping): the cache itself replaces entries
+// only by rename and removes them only by unlink, which leave a mapping intact; a file
+// truncated or rewritten in place by something else while a run is using it is not guarded
+// against (its pages change under the run, or vanish: SIGBUS). A read touches the file's
 // time; after a write the oldest entries are removed until the folder holds at most
 // `max_bytes` (AIRMASS_CACHE_MAX_MB, default 1024). An entry that fails its checks
 // (table_store.hpp: another key, truncated, corrupt) is removed and the tables are

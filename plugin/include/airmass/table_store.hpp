@@ -55,8 +55,11 @@ struct TableRecord {
 TableRecord table_record(const MultipleScattering& tables, std::string_view key);
 
 // The tables in `bytes` if they are a whole, uncorrupted record of this format with exactly
-// `key`; std::nullopt otherwise (foreign, truncated, corrupt, older format).
-std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key);
+// `key`; std::nullopt otherwise (foreign, truncated, corrupt, older format). With an `owner`
+// that keeps `bytes` alive and unchanged (a mapped file), the G table is read in place — the
+// tables then share that memory (SharedFloats) — else every array is copied.
+std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key,
+                                                     std::shared_ptr<const void> owner = {});
 
 // Where a host keeps tables between calls. Both calls are made from the thread that asks for
 // the tables; neither may throw for a missing, unreadable or unwritable entry (a store that

@@ -40,9 +40,10 @@ bool is_entry(const fs::path& p) {
 }
 
 // A file's bytes for reading: mapped read-only where the platform can (the page cache itself,
-// nothing copied or zeroed: a 10 MB entry costs its checksum pass and the one copy into the
-// tables), else read whole into a buffer. The cache replaces an entry only by renaming a new
-// file over it (atomic_file.hpp), so a mapped entry's file is never truncated under it.
+// nothing copied or zeroed: a 10 MB entry costs its checksum pass, and the tables read G in
+// place), else read whole into a buffer. The cache replaces an entry only by renaming a new
+// file over it (atomic_file.hpp), so a mapped entry's file is never truncated under it: the
+// tables of a mapping stay valid after the entry is replaced or removed.
 class FileBytes {
 public:
     explicit FileBytes(const fs::path& path) {
@@ -136,9 +137,11 @@ std::shared_ptr<const MultipleScattering> DiskTableStore::load(std::string_view 
     std::error_code ec;
     std::optional<MultipleScattering> tables;
     {
-        const FileBytes file(path);  // tables of 48 wavelengths are ≈ 40 MB
-        if (!file.ok()) return nullptr;  // missing or unreadable: a miss
-        tables = deserialize_tables(file.bytes(), key);
+        // Tables of 48 wavelengths are ≈ 40 MB. G is read in place: the tables keep the file's
+        // bytes (the mapping, or the buffer it was read into) alive as long as they live.
+        auto file = std::make_shared<const FileBytes>(path);
+        if (!file->ok()) return nullptr;  // missing or unreadable: a miss
+        tables = deserialize_tables(file->bytes(), key, file);
     }
     if (!tables) {
         // Foreign, truncated or corrupt: never trusted, removed so the fresh tables replace it.

@@ -49,6 +49,17 @@ namespace airmass {
 #define AIRMASS_SIMD_KERNELS "transport/multiple_scattering_kernels.inc"
 #include "math/simd_targets.inc"
 
+SharedFloats::SharedFloats(std::vector<float> values) {
+    auto owned = std::make_shared<const std::vector<float>>(std::move(values));
+    data_ = owned->data();
+    size_ = owned->size();
+    owner_ = std::move(owned);
+}
+
+bool operator==(const SharedFloats& a, const SharedFloats& b) {
+    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin());
+}
+
 MultipleScattering precompute_multiple_scattering(const Atmosphere& atm, const MsSettings& requested) {
     AIRMASS_SIMD_RETURN(precompute_multiple_scattering_impl(atm, requested));
 }

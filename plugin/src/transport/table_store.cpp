@@ -79,8 +79,9 @@ public:
         const auto* p = reinterpret_cast<const std::byte*>(&v);
         chunk().insert(chunk().end(), p, p + sizeof(T));
     }
-    template <class T>
-    void put_vector(const std::vector<T>& v) {
+    template <class V>  // std::vector<T> or SharedFloats
+    void put_vector(const V& v) {
+        using T = typename V::value_type;
         put<std::uint64_t>(v.size());
         const std::size_t n = v.size() * sizeof(T);
         if (n < kBorrowFrom) {
@@ -154,6 +155,23 @@ public:
             if (n > 0) std::memcpy(v.data(), p, std::size_t(n) * sizeof(T));
         }
         pos_ += std::size_t(n) * sizeof(T);
+        return true;
+    }
+    // An array of floats read in place when `owner` keeps the bytes alive and they are aligned
+    // (a mapped cache entry: no copy, no fresh pages), else copied.
+    bool get_shared(SharedFloats& v, const std::shared_ptr<const void>& owner) {
+        std::uint64_t n = 0;
+        if (!get(n) || n > (bytes_.size() - pos_) / sizeof(float)) return false;
+        const std::byte* p = bytes_.data() + pos_;
+        if (owner && reinterpret_cast<std::uintptr_t>(p) % alignof(float) == 0) {
+            v = SharedFloats(reinterpret_cast<const float*>(p), std::size_t(n), owner);
+            pos_ += std::size_t(n) * sizeof(float);
+            return true;
+        }
+        pos_ -= sizeof n;  // get_vector reads the count itself
+        std::vector<float> copy;
+        if (!get_vector(copy)) return false;
+        v = SharedFloats(std::move(copy));
         return true;
     }
     bool at_end() const { return pos_ == bytes_.size(); }
@@ -361,7 +379,8 @@ std::vector<std::byte> serialize_tables(const MultipleScattering& ms, std::strin
     return bytes;
 }
 
-std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key) {
+std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> bytes, std::string_view key,
+                                                     std::shared_ptr<const void> owner) {
     Reader r(bytes);
     std::span<const std::byte> magic, stored_key, payload;
     std::uint32_t format = 0, mark = 0;
@@ -386,7 +405,7 @@ std::optional<MultipleScattering> deserialize_tables(std::span<const std::byte> 
     std::uint8_t tail = 0;
     bool ok = p.get(mode) && p.get(parameterisation) && p.get(ms.grid.size) && p.get(ms.grid.planet_radius_m) &&
               p.get(ms.grid.top_radius_m) && p.get(ms.grid.mu_s_min) && p.get(nw) && p.get(ms.ground_albedo) &&
-              p.get_vector(ms.slot) && p.get(slot_count) && p.get_vector(ms.phase_radiance) &&
+              p.get_vector(ms.slot) && p.get(slot_count) && p.get_shared(ms.phase_radiance, owner) &&
               p.get_vector(ms.ground_irradiance) && p.get_vector(ms.radiance) && p.get(order_count) &&
               order_count <= 100000;
     for (std::uint64_t k = 0; ok && k < order_count; ++k) {
