@@ -12,7 +12,7 @@
 // scattering, a dense limit of at most 0.5 MB. Then it calls airmass_validate_scene,
 // airmass_sun_light_at_observer, airmass_solar_position, airmass_render_sky and the same sky
 // through airmass_sky_session_create/render (C ABI 6), airmass_analytic_density_json,
-// airmass_sun_column_table (C ABI 7), airmass_vdb_plan and airmass_vdb_grid_values (a block of at most 8x8x8 voxels).
+// airmass_sun_column_table and airmass_sun_ms_table (C ABI 7), airmass_vdb_plan and airmass_vdb_grid_values (a block of at most 8x8x8 voxels).
 // Oracle: every call returns a known airmass_status; a failure carries a non-empty message;
 // success gives finite, non-negative pixels / irradiances / values and a sun position in range;
 // a NUL-terminated message buffer is never overrun (ASan).
@@ -400,6 +400,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
             require(mu_size >= 2 && r_size >= 2 && columns.size() % (std::size_t(mu_size) * r_size) == 0,
                     "sun column table accepted sizes it should refuse");
             for (float v : columns) require(std::isfinite(v) && v >= 0.0f, "sun column not finite or negative");
+        }
+    }
+    // C ABI 7: the sun's multiple scattering (Hillaire's Ψ at three wavelengths: a precompute of
+    // ≈ 0.1 s, so for one input in 32), sizes around the allowed range, a buffer of any size.
+    if (in.ConsumeIntegral<uint8_t>() < 8) {
+        const int32_t mu_size = in.ConsumeIntegralInRange<int32_t>(-1, 12);
+        const int32_t r_size = in.ConsumeIntegralInRange<int32_t>(-1, 6);
+        std::vector<float> psi(in.ConsumeIntegralInRange<std::size_t>(0, 12 * 6 * 4));
+        double mu_s_min = std::nan("");
+        if (status_ok(airmass_sun_ms_table(&spec, &vdb, mu_size, r_size, psi.data(), psi.size(), &mu_s_min, msg,
+                                           message_size))) {
+            require(mu_size >= 2 && r_size >= 2 && psi.size() == std::size_t(mu_size) * r_size * 3,
+                    "sun multiple-scattering table accepted sizes it should refuse");
+            require(mu_s_min >= -1.0 && mu_s_min < 1.0, "sun multiple-scattering table: mu_s_min outside [-1, 1)");
+            for (float v : psi) require(std::isfinite(v) && v >= 0.0f, "sun multiple scattering not finite or negative");
         }
     }
 
