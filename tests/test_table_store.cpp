@@ -65,6 +65,10 @@ void expect_same_tables(const MultipleScattering& a, const MultipleScattering& b
     for (std::size_t k = 0; k < a.orders.size(); ++k) EXPECT_EQ(a.orders[k].relative, b.orders[k].relative);
 }
 
+// A record read back is the record written, bit for bit. The record the disk cache writes is
+// pieces: joined, they are serialize_tables' bytes; G goes to the file from the tables
+// themselves (no copy); and the checksum taken piece by piece — over pieces whose sizes are
+// not multiples of its 32-byte blocks — is the one a reader computes over the whole payload.
 TEST(TableStore, RecordRoundTripsBitForBit) {
     const Atmosphere atm = small_earth();
     const MsSettings s = small_tables();
@@ -74,17 +78,7 @@ TEST(TableStore, RecordRoundTripsBitForBit) {
     const auto back = deserialize_tables(bytes, key);
     ASSERT_TRUE(back.has_value());
     expect_same_tables(ms, *back);
-}
 
-// The record the disk cache writes: its pieces joined are serialize_tables' bytes, G goes to the
-// file from the tables themselves (no copy), and the checksum taken piece by piece — over
-// pieces whose sizes are not multiples of its 32-byte blocks — is the one a reader computes
-// over the whole payload (a record that reads back whole).
-TEST(TableStore, TheRecordsPiecesAreTheRecordWithTheTablesInPlace) {
-    const Atmosphere atm = small_earth();
-    const MsSettings s = small_tables();
-    const MultipleScattering ms = precompute_multiple_scattering(atm, s);
-    const std::string key = ms_table_key(atm, s);
     const TableRecord record = table_record(ms, key);
     ASSERT_GE(record.pieces.size(), 3u);
     std::vector<std::byte> joined;
@@ -98,10 +92,7 @@ TEST(TableStore, TheRecordsPiecesAreTheRecordWithTheTablesInPlace) {
     EXPECT_TRUE(in_place);
     EXPECT_TRUE(odd_size);
     EXPECT_EQ(record.size(), joined.size());
-    EXPECT_EQ(joined, serialize_tables(ms, key));
-    const auto back = deserialize_tables(joined, key);
-    ASSERT_TRUE(back.has_value());
-    expect_same_tables(ms, *back);
+    EXPECT_EQ(joined, bytes);
 }
 
 TEST(TableStore, KeyFollowsEveryInputOfThePrecomputeAndNothingElse) {
