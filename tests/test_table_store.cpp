@@ -18,6 +18,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -382,6 +383,26 @@ TEST(MsView, SkyWithTheViewMatchesPerRayIntegration) {
     }
     // A finer view is closer.
     EXPECT_LT(view_error(ev, 2.0, 10.0, 64).p95, view_error(ev, 2.0, 10.0, 8).p95);
+}
+
+// From orbit the view's last sky row lies on the limb, a ray tangent to the top of the
+// atmosphere, and all of a row's rays share one quadrature: on the tangent itself rounding
+// decided whether the row met the shell, and the whole row came out 0 for 145 of 360 sun
+// azimuths (24.9 % off next to the limb). Inside it by SkyGrid::kEdge, every node holds light.
+TEST(MsView, TheLimbRowFromOrbitHoldsLightForEverySunAzimuth) {
+    const Atmosphere atm = small_earth();
+    MultipleScatteringOptions options;
+    options.tables = small_tables();
+    const Evaluator ev(atm, compute_tables(atm, options, 2), 16);
+    const std::size_t nw = atm.wavelength_count();
+    for (int a = 0; a < 72; ++a) {
+        const double az = 5.0 * a * std::numbers::pi / 180.0, el = 30.0 * std::numbers::pi / 180.0;
+        const Vec3<double> sun(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+        const MsView view = ev.ms_view(400e3, sun, kSkyDefaultMultipleGrid, 1);
+        const int limb = view.grid.rows_sky - 1;
+        for (int j = 0; j < view.grid.columns(); ++j)
+            EXPECT_GT(view.grid.at(limb, j)[nw / 2], 0.0) << "sun azimuth " << 5 * a << " deg, column " << j;
+    }
 }
 
 TEST(MsView, RefusedForAnotherObserverAndZeroWithoutTables) {

@@ -332,9 +332,11 @@ void multiple_scattering_radiance(const Atmosphere& atmosphere, const MultipleSc
 // sun-aligned grid (Evaluator::ms_view). The quadrature along a ray depends on the altitude and
 // the zenith angle alone, so it is built once for the row (from its first ray) and each ray adds
 // only its own lookups: per ray about half the work of multiple_scattering_radiance (docs/sky.md).
-// Every ray's cos(zenith) must equal the first's to 1e-12 (std::invalid_argument naming the
-// ray otherwise); out spans hold n × wavelength_count() values, ray-major. The values are
-// those of n calls of multiple_scattering_radiance, but for the rounding of the directions.
+// Every ray's cos(zenith) must equal that of the first ray of finite, non-zero length to
+// 1e-12 (std::invalid_argument naming the ray otherwise; a ray of zero, infinite or NaN
+// length gets 0, as alone); out spans hold n × wavelength_count() values, ray-major. The
+// values are those of n calls of multiple_scattering_radiance, but for the rounding of the
+// directions (≤ 2e-7 relative measured: the weights are float).
 void multiple_scattering_radiance_row(const Atmosphere& atmosphere, const MultipleScattering& ms, double altitude_m,
                                       std::span<const Vec3<double>> view_directions, Vec3<double> sun_direction,
                                       MsRadianceOut out, int samples = 32);

@@ -71,8 +71,12 @@ struct SkyGridLayout {
 };
 
 struct SkyGrid {
-    // Nodes next to the horizon sit this far inside their piece so that the evaluator sees
-    // an unambiguous sky or ground ray (the radiance is continuous up to the edge).
+    // Nodes next to the horizon — and, for an observer above the atmosphere, at its limb
+    // (θ = theta_space, a ray tangent to the top) — sit this far inside their piece so that
+    // the evaluator sees an unambiguous sky or ground ray, or one that meets the atmosphere
+    // (the radiance is continuous up to the edge; exactly on the limb, rounding decided
+    // whether a ray met the shell, and a whole row of the multiple-scattering view, which
+    // shares one quadrature, could come out zero).
     static constexpr double kEdge = 1e-7;
     int intervals = 0;  // ψ intervals (G)
     int rows_sky = 0, rows_ground = 0;
@@ -119,7 +123,8 @@ struct SkyGrid {
     double row_theta(int k) const {
         if (k < rows_sky) {
             const double f = f_of_x(double(k) / (rows_sky - 1));
-            return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0);
+            return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0) +
+                   (k == rows_sky - 1 && hz.theta_space > 0.0 ? kEdge : 0.0);
         }
         const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1));
         return std::min(hz.theta_horizon + f * ground_span(), std::numbers::pi) + (k == rows_sky ? kEdge : 0.0);

@@ -44,13 +44,20 @@ std::uint64_t fnv1a64(std::string_view text);
 std::vector<std::byte> serialize_tables(const MultipleScattering& tables, std::string_view key);
 
 // The same record as pieces to be written one after the other: the header and the small
-// fields held in `owned`, the large arrays (G, E_ms) referenced where they lie in `tables` —
-// nothing of a 10 MB table is copied before it reaches the file. Valid while `tables` lives
-// and is not changed.
+// fields held in `owned`, every array of 4 kB or more (G; E_ms from 43 wavelengths on)
+// referenced where it lies in `tables` — nothing of a 10 MB table is copied before it reaches
+// the file. Valid while `tables` lives and is not changed. Move-only: `pieces` point into
+// `owned`, which a copy would not own.
 struct TableRecord {
     std::vector<std::span<const std::byte>> pieces;
     std::deque<std::vector<std::byte>> owned;
     std::size_t size() const;
+
+    TableRecord() = default;
+    TableRecord(TableRecord&&) = default;
+    TableRecord& operator=(TableRecord&&) = default;
+    TableRecord(const TableRecord&) = delete;
+    TableRecord& operator=(const TableRecord&) = delete;
 };
 TableRecord table_record(const MultipleScattering& tables, std::string_view key);
 

@@ -9,7 +9,8 @@
 // The payload is the fields of MultipleScattering in declaration order, each vector as a u64
 // count and its elements. Every field's size is a multiple of 4 bytes and the payload starts at
 // a multiple of 8 of the record, so a record read to an aligned address (a heap buffer, a
-// mapped file) has every vector's elements aligned: they are copied into their vectors at once.
+// mapped file) has every vector's elements aligned: G is used where it lies when the caller
+// keeps the bytes alive (deserialize_tables' owner), the other arrays are copied at once.
 #include "airmass/table_store.hpp"
 
 #include <algorithm>
@@ -217,6 +218,7 @@ class PayloadChecksum {
 public:
     void update(std::span<const std::byte> bytes) {
         size_ += bytes.size();
+        if (bytes.empty()) return;  // (memcpy from an empty span's null data is undefined)
         if (held_ > 0) {  // complete the block begun by the last piece
             const std::size_t n = std::min(bytes.size(), std::size_t(32) - held_);
             std::memcpy(block_ + held_, bytes.data(), n);
