@@ -1,0 +1,68 @@
+// LargeBuffer (support/large_buffer.hpp): the precompute's work arrays on 2 MiB boundaries,
+// advised for transparent huge pages on Linux.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include "support/large_buffer.hpp"
+
+namespace {
+
+constexpr std::size_t kHuge = std::size_t(2) << 20;
+
+TEST(LargeBuffer, HoldsWhatIsWrittenAndMovesWithoutCopying) {
+    for (const std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(1000), kHuge / 4 - 1, kHuge / 4,
+                                std::size_t(5) * kHuge / 4 + 3}) {
+        airmass::LargeBuffer<float> a(n);
+        ASSERT_EQ(a.size(), n);
+        for (std::size_t i = 0; i < n; ++i) a[i] = float(i % 65521) + 0.5f;
+        const float* p = a.data();
+        airmass::LargeBuffer<float> b(std::move(a));
+        EXPECT_EQ(b.data(), p);
+        EXPECT_EQ(a.size(), 0u);
+        EXPECT_EQ(a.data(), nullptr);
+        airmass::LargeBuffer<float> c;
+        c = std::move(b);
+        EXPECT_EQ(c.data(), p);
+        for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(c[i], float(i % 65521) + 0.5f) << "n " << n << " i " << i;
+        if (n * sizeof(float) >= kHuge) {
+            EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.data()) % kHuge, 0u) << "n " << n;
+        }
+    }
+}
+
+#if defined(__linux__)
+// The mapping that holds a buffer of ≥ 2 MiB carries the huge-page advice (VmFlags "hg") whenever
+// the kernel offers transparent huge pages at all.
+TEST(LargeBuffer, IsAdvisedForHugePagesOnLinux) {
+    std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string modes;
+    if (!std::getline(mode, modes) || modes.find("[never]") != std::string::npos)
+        GTEST_SKIP() << "no transparent huge pages here (" << modes << ")";
+    airmass::LargeBuffer<std::uint16_t> buf(std::size_t(3) * kHuge);
+    const auto at = reinterpret_cast<std::uintptr_t>(buf.data());
+    std::ifstream smaps("/proc/self/smaps");
+    std::string line;
+    bool inside = false, found = false;
+    while (std::getline(smaps, line)) {
+        std::uintptr_t lo = 0, hi = 0;
+        char dash = 0;
+        std::istringstream head(line);
+        if (head >> std::hex >> lo >> dash >> hi && dash == '-' && line.find(':') > line.find(' ')) {
+            inside = lo <= at && at < hi;
+            continue;
+        }
+        if (inside && line.rfind("VmFlags:", 0) == 0) {
+            found = true;
+            EXPECT_NE((line + " ").find(" hg "), std::string::npos) << line;
+        }
+    }
+    EXPECT_TRUE(found) << "no mapping holds " << std::hex << at;
+}
+#endif
+
+}  // namespace
