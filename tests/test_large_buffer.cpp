@@ -1,4 +1,4 @@
-// LargeBuffer (support/large_buffer.hpp): the precompute's work arrays on 2 MiB boundaries,
+// LargeBuffer and LargeAllocator (airmass/large_buffer.hpp): the precompute's work arrays on 2 MiB boundaries,
 // advised for transparent huge pages on Linux.
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-#include "support/large_buffer.hpp"
+#include "airmass/large_buffer.hpp"
 
 namespace {
 

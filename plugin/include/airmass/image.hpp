@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "airmass/large_buffer.hpp"
+
 namespace airmass {
 
 // A linear float image, rows top to bottom, channels interleaved (R, G, B, ...).
@@ -14,7 +16,10 @@ struct FloatImage {
     int width = 0;
     int height = 0;
     int channels = 3;
-    std::vector<float> pixels;  // width · height · channels
+    // width · height · channels; tens of MB for a sky texture, on huge pages where the system
+    // offers them (large_buffer.hpp: the first touch of 4 KiB pages was a third of a warm
+    // 2048 × 1024 sky's time on a virtual machine, docs/sky.md)
+    std::vector<float, LargeAllocator<float>> pixels;
 
     FloatImage() = default;
     FloatImage(int w, int h, int c) : width(w), height(h), channels(c), pixels(std::size_t(w) * h * c, 0.0f) {}

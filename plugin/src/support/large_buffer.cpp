@@ -1,4 +1,4 @@
-#include "support/large_buffer.hpp"
+#include "airmass/large_buffer.hpp"
 
 #include <new>
 

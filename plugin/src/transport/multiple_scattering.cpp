@@ -42,7 +42,7 @@
 #include "airmass/spectral_table.hpp"
 #include "airmass/spectrum.hpp"
 #include "math/quadrature.hpp"
-#include "support/large_buffer.hpp"
+#include "airmass/large_buffer.hpp"
 
 namespace airmass {
 

@@ -1,19 +1,22 @@
-// Storage for the multiple-scattering precompute's large work arrays (megabytes to tens of
-// megabytes, written by the parallel stages before they are read).
+// Storage for large arrays: the multiple-scattering precompute's work arrays and the images'
+// pixels (megabytes to tens of megabytes, written in parallel before they are read).
 //
 // Two costs of a fresh std::vector<float> of that size are avoided:
 //  * zeroing: std::vector writes every element on the calling thread, and the stages then
-//    overwrite them all (LargeBuffer leaves them uninitialised);
+//    overwrite them all (LargeBuffer leaves them uninitialised; LargeAllocator, for a
+//    std::vector that must start at zero, does not);
 //  * first-touch page faults: one per 4 KiB page, each costly on a virtual machine. An array of
 //    at least 2 MiB is placed on 2 MiB boundaries and, on Linux, advised as a candidate for
 //    transparent huge pages (madvise MADV_HUGEPAGE, honoured when the system's THP mode is
 //    "madvise" or "always"; ignored where it is "never"), so its pages fault 512 at a time.
 //    Elsewhere the advice is a no-op and only the alignment remains.
-// docs/multiple_scattering.md (Cost) has the measurement.
+// docs/multiple_scattering.md (Cost) and docs/sky.md have the measurements.
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <memory>
+#include <new>
 #include <span>
 
 namespace airmass {
@@ -53,6 +56,24 @@ public:
 private:
     T* p_ = nullptr;
     std::size_t n_ = 0;
+};
+
+// The same storage for a std::vector (FloatImage's pixels).
+template <class T>
+struct LargeAllocator {
+    using value_type = T;
+    LargeAllocator() = default;
+    template <class U>
+    LargeAllocator(const LargeAllocator<U>&) noexcept {}
+    T* allocate(std::size_t n) {
+        if (n > std::numeric_limits<std::size_t>::max() / sizeof(T)) throw std::bad_array_new_length();
+        return static_cast<T*>(allocate_large(n * sizeof(T)));
+    }
+    void deallocate(T* p, std::size_t n) noexcept { release_large(p, n * sizeof(T)); }
+    template <class U>
+    friend bool operator==(const LargeAllocator&, const LargeAllocator<U>&) noexcept {
+        return true;
+    }
 };
 
 }  // namespace airmass
