@@ -7,7 +7,10 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
+#include <stdexcept>
 
+#include "airmass/image.hpp"
 #include "airmass/large_buffer.hpp"
 
 namespace {
@@ -33,6 +36,26 @@ TEST(LargeBuffer, HoldsWhatIsWrittenAndMovesWithoutCopying) {
             EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.data()) % kHuge, 0u) << "n " << n;
         }
     }
+}
+
+// FloatImage's pixels (LargeAllocator): zero, like the std::vector they replaced, and aligned.
+TEST(LargeBuffer, ImagePixelsStartAtZeroAndGrowLikeAVector) {
+    airmass::FloatImage big(1024, 512, 3), small(4, 2, 3);
+    for (const airmass::FloatImage* im : {&big, &small}) {
+        ASSERT_EQ(im->pixels.size(), std::size_t(im->width) * im->height * 3);
+        for (float v : im->pixels) ASSERT_EQ(v, 0.0f);
+    }
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(big.pixels.data()) % kHuge, 0u);
+    std::vector<float, airmass::LargeAllocator<float>> v;
+    for (int i = 0; i < 1 << 20; ++i) v.push_back(float(i));  // through 4 MiB: reallocations
+    for (int i = 0; i < 1 << 20; ++i) ASSERT_EQ(v[std::size_t(i)], float(i));
+    airmass::FloatImage copy = big;
+    copy.pixels[7] = 1.0f;
+    EXPECT_EQ(big.pixels[7], 0.0f);
+    EXPECT_THROW(v.reserve(v.max_size() + 1), std::length_error);
+    // sizes whose byte count or rounding to whole huge pages would wrap are refused, not shrunk
+    EXPECT_THROW(airmass::allocate_large(std::size_t(-1) - 100), std::bad_alloc);
+    EXPECT_THROW(airmass::LargeBuffer<float>(std::size_t(-1) / 2), std::bad_alloc);
 }
 
 #if defined(__linux__)

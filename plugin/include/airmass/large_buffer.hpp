@@ -18,6 +18,7 @@
 #include <memory>
 #include <new>
 #include <span>
+#include <type_traits>
 
 namespace airmass {
 
@@ -31,7 +32,8 @@ template <class T>
 class LargeBuffer {
 public:
     LargeBuffer() = default;
-    explicit LargeBuffer(std::size_t n) : p_(static_cast<T*>(allocate_large(n * sizeof(T)))), n_(n) {}
+    static_assert(std::is_trivially_destructible_v<T> && alignof(T) <= __STDCPP_DEFAULT_NEW_ALIGNMENT__);
+    explicit LargeBuffer(std::size_t n) : p_(static_cast<T*>(allocate_large(bytes_of(n)))), n_(n) {}
     LargeBuffer(LargeBuffer&& o) noexcept : p_(o.p_), n_(o.n_) { o.p_ = nullptr, o.n_ = 0; }
     LargeBuffer& operator=(LargeBuffer&& o) noexcept {
         if (this != &o) {
@@ -54,6 +56,10 @@ public:
     operator std::span<const T>() const { return {p_, n_}; }
 
 private:
+    static std::size_t bytes_of(std::size_t n) {
+        if (n > std::numeric_limits<std::size_t>::max() / sizeof(T)) throw std::bad_array_new_length();
+        return n * sizeof(T);
+    }
     T* p_ = nullptr;
     std::size_t n_ = 0;
 };
@@ -61,6 +67,7 @@ private:
 // The same storage for a std::vector (FloatImage's pixels).
 template <class T>
 struct LargeAllocator {
+    static_assert(alignof(T) <= __STDCPP_DEFAULT_NEW_ALIGNMENT__);
     using value_type = T;
     LargeAllocator() = default;
     template <class U>
