@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -85,6 +87,33 @@ TEST(LargeBuffer, IsAdvisedForHugePagesOnLinux) {
         }
     }
     EXPECT_TRUE(found) << "no mapping holds " << std::hex << at;
+}
+
+// A released buffer's mapping is gone with its advice: nothing advised is left on the heap for
+// later allocations (of a host process) to land on. Checked before anything else is allocated.
+TEST(LargeBuffer, ReleasedBuffersLeaveNoMappingBehind) {
+    // A host process that has freed a large block of its own: glibc's malloc then serves blocks
+    // up to that size from its heap (its mmap threshold rises), which stays mapped after free.
+    std::free(std::malloc(std::size_t(30) << 20));
+    for (const std::size_t bytes : {kHuge, std::size_t(5) * kHuge + 12345}) {
+        void* p = airmass::allocate_large(bytes);
+        const auto at = reinterpret_cast<std::uintptr_t>(p);
+        ASSERT_EQ(at % kHuge, 0u);
+        auto mapped = [](std::uintptr_t a, std::uintptr_t b) {  // any mapping meets [a, b)?
+            std::ifstream maps("/proc/self/maps");
+            std::string line;
+            while (std::getline(maps, line)) {
+                unsigned long long lo = 0, hi = 0;
+                if (std::sscanf(line.c_str(), "%llx-%llx", &lo, &hi) == 2 && lo < b && a < hi) return true;
+            }
+            return false;
+        };
+        const std::uintptr_t end = at + (bytes + kHuge - 1) / kHuge * kHuge;
+        ASSERT_TRUE(mapped(at, end));
+        static_cast<unsigned char*>(p)[bytes - 1] = 1;  // the last byte is writable
+        airmass::release_large(p, bytes);
+        EXPECT_FALSE(mapped(at, end)) << "bytes " << bytes;
+    }
 }
 #endif
 

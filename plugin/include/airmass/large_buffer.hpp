@@ -9,7 +9,10 @@
 //    at least 2 MiB is placed on 2 MiB boundaries and, on Linux, advised as a candidate for
 //    transparent huge pages (madvise MADV_HUGEPAGE, honoured when the system's THP mode is
 //    "madvise" or "always"; ignored where it is "never"), so its pages fault 512 at a time.
-//    Elsewhere the advice is a no-op and only the alignment remains.
+//    On Linux that array is a mapping of its own (mmap, released with munmap), so the advice
+//    and the pages end with it: nothing advised is left on the heap of a host process
+//    (Blender) for malloc to hand out again. Elsewhere it comes from aligned operator new,
+//    without advice.
 // docs/multiple_scattering.md (Cost) and docs/sky.md have the measurements.
 #pragma once
 

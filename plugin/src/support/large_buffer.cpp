@@ -1,5 +1,6 @@
 #include "airmass/large_buffer.hpp"
 
+#include <cstdint>
 #include <limits>
 #include <new>
 
@@ -11,26 +12,55 @@ namespace airmass {
 
 namespace {
 constexpr std::size_t kHugePage = std::size_t(2) << 20;  // x86-64's transparent huge page
+
+// Whole huge pages, so the advice covers the array's last one too; a size whose rounding (or,
+// on Linux, the extra huge page mapped for alignment) would wrap is refused.
+std::size_t rounded_size(std::size_t bytes) {
+    if (bytes > std::numeric_limits<std::size_t>::max() - 2 * kHugePage) throw std::bad_alloc();
+    return (bytes + kHugePage - 1) / kHugePage * kHugePage;
 }
+}  // namespace
 
 void* allocate_large(std::size_t bytes) {
     if (bytes < kHugePage) return ::operator new(bytes == 0 ? 1 : bytes);
-    if (bytes > std::numeric_limits<std::size_t>::max() - kHugePage) throw std::bad_alloc();  // rounding would wrap
-    // Whole huge pages, so the advice covers the array's last one too.
-    const std::size_t size = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-    void* p = ::operator new(size, std::align_val_t(kHugePage));
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    const std::size_t size = rounded_size(bytes);
+#if defined(__linux__)
+    // A mapping of our own, not malloc's memory: the huge-page advice then ends with the
+    // buffer (munmap in release_large) instead of staying on a range of the host's heap that
+    // malloc hands out again, and the pages go back to the system when the buffer is freed.
+    // One huge page more than needed is mapped and the ends trimmed, so the array starts on a
+    // 2 MiB boundary.
+    const std::size_t span = size + kHugePage;
+    void* raw = ::mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (raw == MAP_FAILED) throw std::bad_alloc();
+    const auto base = reinterpret_cast<std::uintptr_t>(raw);
+    const auto start = (base + kHugePage - 1) & ~std::uintptr_t(kHugePage - 1);
+    const std::size_t head = start - base, tail = span - head - size;
+    if (head > 0) (void)::munmap(raw, head);
+    if (tail > 0) (void)::munmap(reinterpret_cast<void*>(start + size), tail);
+    void* p = reinterpret_cast<void*>(start);
+#if defined(MADV_HUGEPAGE)
     // Advice only: a kernel built without THP answers EINVAL, one set to "never" ignores it;
     // either way the pages stay 4 KiB, which is what they would have been.
-    (void)madvise(p, size, MADV_HUGEPAGE);
+    (void)::madvise(p, size, MADV_HUGEPAGE);
 #endif
     return p;
+#else
+    return ::operator new(size, std::align_val_t(kHugePage));
+#endif
 }
 
 void release_large(void* p, std::size_t bytes) noexcept {
     if (p == nullptr) return;
-    if (bytes < kHugePage) ::operator delete(p);
-    else ::operator delete(p, std::align_val_t(kHugePage));
+    if (bytes < kHugePage) {
+        ::operator delete(p);
+        return;
+    }
+#if defined(__linux__)
+    (void)::munmap(p, (bytes + kHugePage - 1) / kHugePage * kHugePage);
+#else
+    ::operator delete(p, std::align_val_t(kHugePage));
+#endif
 }
 
 }  // namespace airmass

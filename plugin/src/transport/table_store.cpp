@@ -22,10 +22,6 @@
 
 #include "airmass/version.hpp"
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 namespace airmass {
 
 namespace detail {
@@ -107,19 +103,6 @@ private:
     TableRecord& record_;
 };
 
-// Asks the system to back the 2 MB-aligned part of fresh, untouched storage with huge pages
-// (Linux transparent huge pages in "madvise" mode): a 10 MB table then costs a handful of page
-// faults instead of 2 500 — most of the time of reading it from a mapped file. A hint only:
-// where it is refused or unavailable the storage gets ordinary pages.
-void prefer_huge_pages([[maybe_unused]] void* data, [[maybe_unused]] std::size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
-    const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
-    const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
-    if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#endif
-}
-
 class Reader {
 public:
     explicit Reader(std::span<const std::byte> b) : bytes_(b) {}
@@ -147,7 +130,6 @@ public:
             const T* first = reinterpret_cast<const T*>(p);
             v.clear();
             v.reserve(std::size_t(n));
-            prefer_huge_pages(v.data(), std::size_t(n) * sizeof(T));
             v.assign(first, first + std::size_t(n));
         } else {
             v.resize(std::size_t(n));
