@@ -34,7 +34,7 @@ TEST(LargeBuffer, HoldsWhatIsWrittenAndMovesWithoutCopying) {
         c = std::move(b);
         EXPECT_EQ(c.data(), p);
         for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(c[i], float(i % 65521) + 0.5f) << "n " << n << " i " << i;
-        if (n * sizeof(float) >= kHuge) {
+        if (n * sizeof(float) >= kHuge / 2) {
             EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.data()) % kHuge, 0u) << "n " << n;
         }
     }
@@ -61,32 +61,34 @@ TEST(LargeBuffer, ImagePixelsStartAtZeroAndGrowLikeAVector) {
 }
 
 #if defined(__linux__)
-// The mapping that holds a buffer of ≥ 2 MiB carries the huge-page advice (VmFlags "hg") whenever
+// The mapping that holds a buffer of ≥ 1 MiB carries the huge-page advice (VmFlags "hg") whenever
 // the kernel offers transparent huge pages at all.
 TEST(LargeBuffer, IsAdvisedForHugePagesOnLinux) {
     std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
     std::string modes;
     if (!std::getline(mode, modes) || modes.find("[never]") != std::string::npos)
         GTEST_SKIP() << "no transparent huge pages here (" << modes << ")";
-    airmass::LargeBuffer<std::uint16_t> buf(std::size_t(3) * kHuge);
-    const auto at = reinterpret_cast<std::uintptr_t>(buf.data());
-    std::ifstream smaps("/proc/self/smaps");
-    std::string line;
-    bool inside = false, found = false;
-    while (std::getline(smaps, line)) {
-        std::uintptr_t lo = 0, hi = 0;
-        char dash = 0;
-        std::istringstream head(line);
-        if (head >> std::hex >> lo >> dash >> hi && dash == '-' && line.find(':') > line.find(' ')) {
-            inside = lo <= at && at < hi;
-            continue;
+    for (const std::size_t n : {std::size_t(3) * kHuge / 2, std::size_t(3) * kHuge / 8}) {  // 6 MiB; 1.5 MiB
+        airmass::LargeBuffer<std::uint16_t> buf(n);
+        const auto at = reinterpret_cast<std::uintptr_t>(buf.data());
+        std::ifstream smaps("/proc/self/smaps");
+        std::string line;
+        bool inside = false, found = false;
+        while (std::getline(smaps, line)) {
+            std::uintptr_t lo = 0, hi = 0;
+            char dash = 0;
+            std::istringstream head(line);
+            if (head >> std::hex >> lo >> dash >> hi && dash == '-' && line.find(':') > line.find(' ')) {
+                inside = lo <= at && at < hi;
+                continue;
+            }
+            if (inside && line.rfind("VmFlags:", 0) == 0) {
+                found = true;
+                EXPECT_NE((line + " ").find(" hg "), std::string::npos) << line;
+            }
         }
-        if (inside && line.rfind("VmFlags:", 0) == 0) {
-            found = true;
-            EXPECT_NE((line + " ").find(" hg "), std::string::npos) << line;
-        }
+        EXPECT_TRUE(found) << "no mapping holds " << std::hex << at << " (" << std::dec << n << " elements)";
     }
-    EXPECT_TRUE(found) << "no mapping holds " << std::hex << at;
 }
 
 // A released buffer's mapping is gone with its advice: nothing advised is left on the heap for
@@ -95,7 +97,7 @@ TEST(LargeBuffer, ReleasedBuffersLeaveNoMappingBehind) {
     // A host process that has freed a large block of its own: glibc's malloc then serves blocks
     // up to that size from its heap (its mmap threshold rises), which stays mapped after free.
     std::free(std::malloc(std::size_t(30) << 20));
-    for (const std::size_t bytes : {kHuge, std::size_t(5) * kHuge + 12345}) {
+    for (const std::size_t bytes : {kHuge / 2, kHuge, std::size_t(5) * kHuge + 12345}) {
         void* p = airmass::allocate_large(bytes);
         const auto at = reinterpret_cast<std::uintptr_t>(p);
         ASSERT_EQ(at % kHuge, 0u);

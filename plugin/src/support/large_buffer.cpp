@@ -12,6 +12,8 @@ namespace airmass {
 
 namespace {
 constexpr std::size_t kHugePage = std::size_t(2) << 20;  // x86-64's transparent huge page
+// From this size on an array gets whole huge pages of its own (at most half of the last one unused).
+constexpr std::size_t kLarge = kHugePage / 2;
 
 // Whole huge pages, so the advice covers the array's last one too; a size whose rounding (or,
 // on Linux, the extra huge page mapped for alignment) would wrap is refused.
@@ -22,7 +24,7 @@ std::size_t rounded_size(std::size_t bytes) {
 }  // namespace
 
 void* allocate_large(std::size_t bytes) {
-    if (bytes < kHugePage) return ::operator new(bytes == 0 ? 1 : bytes);
+    if (bytes < kLarge) return ::operator new(bytes == 0 ? 1 : bytes);
     const std::size_t size = rounded_size(bytes);
 #if defined(__linux__)
     // A mapping of our own, not malloc's memory: the huge-page advice then ends with the
@@ -52,7 +54,7 @@ void* allocate_large(std::size_t bytes) {
 
 void release_large(void* p, std::size_t bytes) noexcept {
     if (p == nullptr) return;
-    if (bytes < kHugePage) {
+    if (bytes < kLarge) {
         ::operator delete(p);
         return;
     }
