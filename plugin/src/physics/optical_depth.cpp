@@ -40,6 +40,34 @@ T exponential_mass_quadrature(const PlanetRay<T>& ray, T H, T h_ref, T t0, T t1)
     return boost::math::quadrature::gauss<T, 16>::integrate(rho, t0, t1);
 }
 
+// ∫_{s0}^{s1} sqrt(p² + s²) ds for 0 ≤ s0 ≤ s1 with the radii r0 = sqrt(p² + s0²) and
+// r1 = sqrt(p² + s1²) known: ½ [s r + p² asinh(s/p)] from s0 to s1, with both differences
+// rewritten so nothing cancels: s1 r1 − s0 r0 = Δ (r1 + r0)/2 + Σ (r1 − r0)/2, r1 − r0 = ΔΣ/(r1 + r0),
+// asinh(s1/p) − asinh(s0/p) = asinh(z), z = ΔΣ/(s1 r0 + s0 r1). For z < 0.03 (pieces short against
+// the radius) asinh by its Taylor series to z⁹ (relative error < 1e-17); else as
+// ln((s1 + r1)/(s0 + r0)) = log1p((Δ + r1 − r0)/(s0 + r0)), every term ≥ 0 for s ≥ 0: one log1p,
+// cheaper than std::asinh (which takes a square root and a division more).
+inline double integral_of_radius_known(double p, double s0, double s1, double r0, double r1) {
+    if (!(s1 > s0)) return 0.0;
+    const double d = s1 - s0, sum = s1 + s0;
+    const double dr = d * sum / (r1 + r0);  // r1 − r0
+    const double term1 = 0.5 * d * (r1 + r0) + 0.5 * sum * dr;
+    const double den = s1 * r0 + s0 * r1;
+    double term2 = 0.0;
+    if (p > 0.0 && den > 0.0) {
+        const double z = d * sum / den;
+        double asinh_z;
+        if (z < 0.03) {
+            const double z2 = z * z;
+            asinh_z = z * (1.0 + z2 * (-1.0 / 6.0 + z2 * (3.0 / 40.0 + z2 * (-15.0 / 336.0 + z2 * (105.0 / 3456.0)))));
+        } else {
+            asinh_z = std::log1p((d + dr) / (s0 + r0));
+        }
+        term2 = p * p * asinh_z;
+    }
+    return 0.5 * (term1 + term2);
+}
+
 // ∫ over s' ∈ [s_lo, s_hi] (0 ≤ s_lo ≤ s_hi ≤ +inf) of a piecewise-linear density of
 // altitude, on the line with periapsis radius p and periapsis altitude h_p (altitude
 // increases with s' there). The knot spheres cut [s_lo, s_hi] into pieces on which the
@@ -56,33 +84,37 @@ double piecewise_mass_upward(const CompiledProfile& prof, double R, double p, do
     const auto crossing = [&](double a) { return std::sqrt(std::max((a - h_p) * (2.0 * R + a + h_p), 0.0)); };
     const double h_lo = altitude(s_lo), h_hi = std::isinf(s_hi) ? s_hi : altitude(s_hi);
     std::size_t k = std::size_t(std::upper_bound(A.begin(), A.end(), h_lo) - A.begin());  // first knot above h_lo
-    double mass = 0.0, s = s_lo;
+    // The radius at s, carried along: at a knot's crossing it is R + A[k] (no square root).
+    const auto radius = [&](double s) { return std::sqrt(p * p + s * s); };
+    double mass = 0.0, s = s_lo, r = radius(s_lo);
     while (s < s_hi && k < n) {
-        const double s_next = A[k] >= h_hi ? s_hi : std::clamp(crossing(A[k]), s, s_hi);
+        double s_next = s_hi, r_next = 0.0;
+        bool crossed = false;
+        if (A[k] < h_hi) {
+            const double c = crossing(A[k]);
+            s_next = std::clamp(c, s, s_hi);
+            crossed = s_next == c;
+        }
         if (k >= 1 && s_next > s && A[k] > A[k - 1]) {
             // rho = D[k−1] + slope (h − A[k−1]),  ∫ h ds' = ∫ r ds' − R L
             const double L = s_next - s;
             const double slope = (D[k] - D[k - 1]) / (A[k] - A[k - 1]);
             double piece = D[k - 1] * L;
-            if (slope != 0.0) piece += slope * (integral_of_radius(p, s, s_next) - (R + A[k - 1]) * L);
+            if (slope != 0.0) {
+                r_next = crossed ? R + A[k] : radius(s_next);
+                piece += slope * (integral_of_radius_known(p, s, s_next, r, r_next) - (R + A[k - 1]) * L);
+            }
             // The density on the piece lies between its knots' values, and so does its mean. The
             // bound also catches the rounding of ∫r ds − (R + A)L times the slope of knots closer
             // than rounding (a denormal tent peak_km: ∞·0 = NaN; issue 17, extremes).
             const double lo = std::min(D[k - 1], D[k]) * L, hi = std::max(D[k - 1], D[k]) * L;
             mass += piece >= lo ? std::min(piece, hi) : lo;
         }
+        if (s_next > s) r = r_next > 0.0 ? r_next : (crossed ? R + A[k] : radius(s_next));
         s = s_next;
         ++k;
     }
     return mass;
-}
-
-// asinh; for |z| < 0.03 (pieces short against the radius: nearly always) by its Taylor
-// series to z⁹ (relative error < 1e-17), which is several times cheaper than std::asinh.
-inline double asinh_fast(double z) {
-    if (!(std::abs(z) < 0.03)) return std::asinh(z);
-    const double z2 = z * z;
-    return z * (1.0 + z2 * (-1.0 / 6.0 + z2 * (3.0 / 40.0 + z2 * (-15.0 / 336.0 + z2 * (105.0 / 3456.0)))));
 }
 
 // A segment (t1 may be +inf) as upward pieces on either side of the periapsis.
@@ -135,16 +167,9 @@ T exponential_segment_mass(ChapmanMethod method, const PlanetRay<T>& ray, T H, T
 }
 
 double integral_of_radius(double p, double s0, double s1) {
-    // ∫ sqrt(p² + s²) ds = ½ [s r + p² asinh(s/p)], with both differences rewritten so
-    // nothing cancels: s1 r1 − s0 r0 = Δ (r1 + r0)/2 + Σ (r1 − r0)/2, r1 − r0 = ΔΣ/(r1 + r0),
-    // asinh(s1/p) − asinh(s0/p) = asinh(ΔΣ / (s1 r0 + s0 r1)).
+    // ∫ sqrt(p² + s²) ds = ½ [s r + p² asinh(s/p)] (integral_of_radius_known)
     if (!(s1 > s0)) return 0.0;
-    const double r0 = std::sqrt(p * p + s0 * s0), r1 = std::sqrt(p * p + s1 * s1);
-    const double d = s1 - s0, sum = s1 + s0;
-    const double term1 = 0.5 * d * (r1 + r0) + 0.5 * sum * (d * sum / (r1 + r0));
-    const double den = s1 * r0 + s0 * r1;
-    const double term2 = (p > 0.0 && den > 0.0) ? p * p * asinh_fast(d * sum / den) : 0.0;
-    return 0.5 * (term1 + term2);
+    return integral_of_radius_known(p, s0, s1, std::sqrt(p * p + s0 * s0), std::sqrt(p * p + s1 * s1));
 }
 
 double profile_segment_mass(const CompiledProfile& prof, ChapmanMethod method, const PlanetRay<double>& ray,
