@@ -31,6 +31,7 @@
 #define HWY_TARGET_INCLUDE "math/chapman_airmass_hwy.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/cache_control.h>
+#include <hwy/contrib/math/math-inl.h>
 #include <hwy/highway.h>
 
 #include <algorithm>
@@ -317,6 +318,18 @@ HWY_INLINE void store4(V v, T* p) {
     }
 }
 
+// The rescaled output of four lanes, mantissa · e^exponent, when every exponent lies in
+// [−700, 700] (Highway's Exp: ≤ 1 ULP there, against std::exp's per lane in the scalar form);
+// false, nothing stored, otherwise (the caller takes the lanes one at a time, as before).
+template <class T>
+HWY_INLINE bool store_rescaled4(V mantissa, V exponent, T* p) {
+    const DD dd;
+    const V bound = hn::Set(dd, 700.0);
+    if (!hn::AllTrue(dd, hn::Le(hn::Abs(exponent), bound))) return false;  // NaN: false too
+    store4(hn::Mul(mantissa, hn::Exp(dd, exponent)), p);
+    return true;
+}
+
 // The batch. kRescaled: x = X + xh[i] (in T, as chapman_rescaled) and out1[i] = Ch(x) e^(−xh[i]);
 // else x = xh[i], out1 = mantissa, out2 = log_scale. Lanes the fast path cannot take go through
 // AirmassTable::scaled in T, as in the scalar form.
@@ -387,18 +400,24 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
                 load(j, x, mu, s);
                 stage_a<true>(table, hn::Sqrt(x), hn::Abs(mu), ch, j);
             }
+            bool stored[kBlocks];
             for (size_t j = 0; j < blocks; ++j) {
                 const V mantissa = stage_b(table, ch, j);
                 const size_t i = i0 + 4 * j;
-                if (!kRescaled && j < full && ch.slow[j] == 0) {
-                    store4(mantissa, out1 + i);
-                    store4(hn::Zero(dd), out2 + i);
-                } else {
-                    hn::Store(mantissa, dd, ch.mantissa + 4 * j);
+                stored[j] = false;
+                if (j < full && ch.slow[j] == 0) {
+                    if constexpr (kRescaled) {
+                        stored[j] = store_rescaled4(mantissa, hn::Neg(load4(xh + i)), out1 + i);  // log scale 0
+                    } else {
+                        store4(mantissa, out1 + i);
+                        store4(hn::Zero(dd), out2 + i);
+                        stored[j] = true;
+                    }
                 }
+                if (!stored[j]) hn::Store(mantissa, dd, ch.mantissa + 4 * j);
             }
             for (size_t j = 0; j < blocks; ++j) {
-                if (!kRescaled && j < full && ch.slow[j] == 0) continue;  // stored above
+                if (stored[j]) continue;  // stored above
                 for (size_t k = 0; k < 4 && 4 * j + k < count; ++k) {
                     const size_t i = i0 + 4 * j + k;
                     if (ch.slow[j] & (1u << k)) finish(i, table.scaled(x_of(i), cs[i], ss[i]));
@@ -446,10 +465,18 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             const V keep = hn::BitCast(dd, hn::Load(hn::Full256<uint64_t>(), kPartition.keep[need]));
             const V mantissa = hn::Sub(h, hn::And(product, keep));
             n1 += size_t(std::popcount(need));
-            if (!kRescaled && j < full) {
-                store4(mantissa, out1 + i0 + 4 * j);
-                store4(hn::Load(dd, ch.log_scale + 4 * j), out2 + i0 + 4 * j);
-            } else {
+            const V log_scale = hn::Load(dd, ch.log_scale + 4 * j);
+            bool stored = false;
+            if (j < full) {
+                if constexpr (kRescaled) {
+                    stored = store_rescaled4(mantissa, hn::Sub(log_scale, load4(xh + i0 + 4 * j)), out1 + i0 + 4 * j);
+                } else {
+                    store4(mantissa, out1 + i0 + 4 * j);
+                    store4(log_scale, out2 + i0 + 4 * j);
+                    stored = true;
+                }
+            }
+            if (!stored) {
                 hn::Store(mantissa, dd, ch.mantissa + 4 * j);
                 for (size_t k = 0; k < 4 && 4 * j + k < count; ++k)
                     finish(i0 + 4 * j + k, ScaledChapman<T>{static_cast<T>(ch.mantissa[4 * j + k]), static_cast<T>(ch.log_scale[4 * j + k])});
