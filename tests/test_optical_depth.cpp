@@ -163,6 +163,8 @@ TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     std::vector<Segment> segs = segments(8000.0);
     segs.push_back({"ozone tangent", ray_deg(100e3, zenith_for_periapsis(100e3, 25e3)), 0.0, kInf});
     segs.push_back({"ozone from below", ray_deg(0.0, 70.0), 0.0, kInf});
+    // a finite end so far out that s² overflows (review of 36b4bf0: it returned 0 for the tent)
+    segs.push_back({"ozone from below, end at 1e200 m", ray_deg(0.0, 70.0), 0.0, 1e200});
     for (std::size_t i = 0; i < profiles.size(); ++i) {
         for (const auto& seg : segs) {
             const double got = profile_segment_mass(atm.constituents[i].profile, ChapmanMethod::exact, seg.ray, kTop,

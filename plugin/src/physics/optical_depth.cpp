@@ -90,7 +90,7 @@ double piecewise_mass_upward(const CompiledProfile& prof, double R, double p, do
     while (s < s_hi && k < n) {
         double s_next = s_hi, r_next = 0.0;
         bool crossed = false;
-        if (A[k] < h_hi) {
+        if (!(A[k] >= h_hi)) {  // h_hi NaN (s_hi² overflowed): cross the knots, as for s_hi = inf
             const double c = crossing(A[k]);
             s_next = std::clamp(c, s, s_hi);
             crossed = s_next == c;
