@@ -12,6 +12,11 @@
 #include <vector>
 #include <stdexcept>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
+
 #include "airmass/image.hpp"
 #include "airmass/large_buffer.hpp"
 
@@ -113,10 +118,32 @@ TEST(LargeBuffer, ReleasedBuffersLeaveNoMappingBehind) {
         const std::uintptr_t end = at + (bytes + kHuge - 1) / kHuge * kHuge;
         ASSERT_TRUE(mapped(at, end));
         static_cast<unsigned char*>(p)[bytes - 1] = 1;  // the last byte is writable
+        // The huge page mapped beyond the array for alignment has been given back: the page just
+        // past its end is free (mmap's hint is taken only when nothing is mapped there) ...
+        const std::size_t page = std::size_t(::sysconf(_SC_PAGESIZE));
+        void* guard = ::mmap(reinterpret_cast<void*>(end), page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        ASSERT_NE(guard, MAP_FAILED);
+        EXPECT_EQ(reinterpret_cast<std::uintptr_t>(guard), end) << "the mapping goes on past the array, bytes " << bytes;
+        static_cast<volatile unsigned char*>(guard)[0] = 7;
         airmass::release_large(p, bytes);
         EXPECT_FALSE(mapped(at, end)) << "bytes " << bytes;
+        // ... and releasing the array unmaps the array only: a neighbour's page stays.
+        const auto g = reinterpret_cast<std::uintptr_t>(guard);
+        EXPECT_TRUE(mapped(g, g + page)) << "release unmapped past the array, bytes " << bytes;
+        if (mapped(g, g + page)) {
+            EXPECT_EQ(static_cast<volatile unsigned char*>(guard)[0], 7);
+        }
+        ::munmap(guard, page);
     }
 }
+
 #endif
+
+// A size the system cannot map (an exbibyte: more than x86-64's address space) is std::bad_alloc,
+// like operator new, never a null pointer.
+TEST(LargeBuffer, AnUnmappableSizeThrows) {
+    EXPECT_THROW(airmass::allocate_large(std::size_t(1) << 60), std::bad_alloc);
+    EXPECT_THROW(airmass::LargeBuffer<float>(std::size_t(1) << 58), std::bad_alloc);
+}
 
 }  // namespace

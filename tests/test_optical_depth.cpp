@@ -132,6 +132,29 @@ TEST(OpticalDepth, IntegralOfRadiusClosedForm) {
     }
 }
 
+// Lengths from the smallest subnormal to the largest double: never NaN; a number between the
+// bounds (s1 − s0)·r(s0) and (s1 − s0)·r(s1) (r grows with s) whenever those are numbers, +inf only
+// where the integral itself exceeds the largest double.
+TEST(OpticalDepth, IntegralOfRadiusAtExtremeLengths) {
+    using LD = long double;  // x87 extended: neither bound under- or overflows at these lengths
+    const double v[] = {0.0, 4.9e-324, 1e-310, 1e-200, 1e-160, 1e-20, 1.0, 6.4e6, 1e100, 1e150, 1e154, 1e200, 1e308};
+    for (double p : v)
+        for (double s0 : v)
+            for (double s1 : v) {
+                if (s1 < s0) continue;
+                const double got = integral_of_radius(p, s0, s1);
+                ASSERT_FALSE(std::isnan(got)) << p << " " << s0 << " " << s1;
+                const LD d = LD(s1) - LD(s0);
+                const LD lo = d * std::sqrt(LD(p) * p + LD(s0) * s0), hi = d * std::sqrt(LD(p) * p + LD(s1) * s1);
+                if (hi < 1e307L) {
+                    EXPECT_GE(LD(got), lo * (1 - 1e-12L) - 1e-300L) << p << " " << s0 << " " << s1;
+                    EXPECT_LE(LD(got), hi * (1 + 1e-12L) + 1e-300L) << p << " " << s0 << " " << s1;
+                } else if (lo > 1.8e308L) {
+                    EXPECT_TRUE(std::isinf(got)) << p << " " << s0 << " " << s1;
+                }
+            }
+}
+
 // Piecewise-linear profiles (tent, constant, knots with a jump) in closed form vs quadrature.
 TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     std::vector<DensityProfile> profiles;

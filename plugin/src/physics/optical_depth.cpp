@@ -49,23 +49,34 @@ T exponential_mass_quadrature(const PlanetRay<T>& ray, T H, T h_ref, T t0, T t1)
 // cheaper than std::asinh (which takes a square root and a division more).
 inline double integral_of_radius_known(double p, double s0, double s1, double r0, double r1) {
     if (!(s1 > s0)) return 0.0;
-    const double d = s1 - s0, sum = s1 + s0;
-    const double dr = d * sum / (r1 + r0);  // r1 − r0
-    const double term1 = 0.5 * d * (r1 + r0) + 0.5 * sum * dr;
+    // The sums s1 + s0 and r1 + r0 are halved before adding where they could overflow (from 2^1000
+    // m), else taken whole (half the smallest subnormal is 0), and every product and quotient
+    // below is formed at the size of the integral: a number whenever the integral is, from
+    // subnormal lengths to the largest double. (r ≥ s, so ks = ½ implies kr = ½.)
+    const double ks = s1 > 0x1p1000 ? 0.5 : 1.0, kr = r1 > 0x1p1000 ? 0.5 : 1.0;
+    const double d = s1 - s0, sum = ks * s0 + ks * s1, rsum = kr * r0 + kr * r1;  // ks (s1 + s0), kr (r1 + r0)
+    const double dr = d * (sum / rsum) * (kr / ks);  // r1 − r0; the quotient is ≤ 1
+    const double half_term1 = (0.25 / kr) * (d * rsum) + (0.25 / ks) * (sum * dr);  // ½ (s1 r1 − s0 r0)
     const double den = s1 * r0 + s0 * r1;
-    double term2 = 0.0;
-    if (p > 0.0 && den > 0.0) {
-        const double z = d * sum / den;
-        double asinh_z;
+    // ½ p² asinh z = (p/2) · (p asinh z), each factor of its own size: for s ≪ p, z ≈ Δ/p underflows
+    // where p z ≈ Δ does not (and p² overflows where p z does not). Skipped when p² is below the
+    // smallest double: then p² asinh(s/p) ≤ p² ln(2 s/p) is too.
+    double half_term2 = 0.0;
+    if (p * p > 0.0 && den > 0.0) {
+        const double ratio = sum / den / ks;  // (s1 + s0)/den ≤ 2/p
+        const double z = d * ratio;
+        double p_asinh_z;
         if (z < 0.03) {
             const double z2 = z * z;
-            asinh_z = z * (1.0 + z2 * (-1.0 / 6.0 + z2 * (3.0 / 40.0 + z2 * (-15.0 / 336.0 + z2 * (105.0 / 3456.0)))));
+            p_asinh_z = d * (p * ratio) *
+                        (1.0 + z2 * (-1.0 / 6.0 + z2 * (3.0 / 40.0 + z2 * (-15.0 / 336.0 + z2 * (105.0 / 3456.0)))));
         } else {
-            asinh_z = std::log1p((d + dr) / (s0 + r0));
+            const double a = d + dr, b = s0 + r0, q = a / b;
+            p_asinh_z = p * (q <= std::numeric_limits<double>::max() ? std::log1p(q) : std::log(a) - std::log(b));
         }
-        term2 = p * p * asinh_z;
+        half_term2 = (0.5 * p) * p_asinh_z;
     }
-    return 0.5 * (term1 + term2);
+    return half_term1 + half_term2;
 }
 
 // ∫ over s' ∈ [s_lo, s_hi] (0 ≤ s_lo ≤ s_hi ≤ +inf) of a piecewise-linear density of
@@ -169,7 +180,8 @@ T exponential_segment_mass(ChapmanMethod method, const PlanetRay<T>& ray, T H, T
 double integral_of_radius(double p, double s0, double s1) {
     // ∫ sqrt(p² + s²) ds = ½ [s r + p² asinh(s/p)] (integral_of_radius_known)
     if (!(s1 > s0)) return 0.0;
-    return integral_of_radius_known(p, s0, s1, std::sqrt(p * p + s0 * s0), std::sqrt(p * p + s1 * s1));
+    // hypot: p² + s² neither underflows to a zero radius nor overflows for lengths a double holds
+    return integral_of_radius_known(p, s0, s1, std::hypot(p, s0), std::hypot(p, s1));
 }
 
 double profile_segment_mass(const CompiledProfile& prof, ChapmanMethod method, const PlanetRay<double>& ray,

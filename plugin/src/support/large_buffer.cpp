@@ -1,5 +1,6 @@
 #include "airmass/large_buffer.hpp"
 
+#include <cassert>
 #include <cstdint>
 #include <limits>
 #include <new>
@@ -38,8 +39,12 @@ void* allocate_large(std::size_t bytes) {
     const auto base = reinterpret_cast<std::uintptr_t>(raw);
     const auto start = (base + kHugePage - 1) & ~std::uintptr_t(kHugePage - 1);
     const std::size_t head = start - base, tail = span - head - size;
-    if (head > 0) (void)::munmap(raw, head);
-    if (tail > 0) (void)::munmap(reinterpret_cast<void*>(start + size), tail);
+    // munmap of whole pages inside a mapping of our own cannot fail (it can only be given bad
+    // arguments); the checks are for debug builds.
+    [[maybe_unused]] int rc = 0;
+    if (head > 0) rc |= ::munmap(raw, head);
+    if (tail > 0) rc |= ::munmap(reinterpret_cast<void*>(start + size), tail);
+    assert(rc == 0);
     void* p = reinterpret_cast<void*>(start);
 #if defined(MADV_HUGEPAGE)
     // Advice only: a kernel built without THP answers EINVAL, one set to "never" ignores it;
@@ -59,7 +64,8 @@ void release_large(void* p, std::size_t bytes) noexcept {
         return;
     }
 #if defined(__linux__)
-    (void)::munmap(p, (bytes + kHugePage - 1) / kHugePage * kHugePage);
+    [[maybe_unused]] const int rc = ::munmap(p, (bytes + kHugePage - 1) / kHugePage * kHugePage);
+    assert(rc == 0);
 #else
     ::operator delete(p, std::align_val_t(kHugePage));
 #endif
