@@ -22,6 +22,7 @@
 
 #include "airmass/chapman.hpp"
 #include "airmass/simd.hpp"
+#include "run_times.hpp"
 
 namespace {
 
@@ -81,27 +82,6 @@ void register_all() {
 
 // Keeps ns per evaluation (CPU) of each benchmark: the median when there are repetitions,
 // else the one run.
-class RatioReporter : public benchmark::ConsoleReporter {
-public:
-    std::map<std::string, double> single, median;
-    void ReportRuns(const std::vector<Run>& runs) override {
-        ConsoleReporter::ReportRuns(runs);
-        for (const auto& run : runs) {
-            const std::string name = run.benchmark_name();
-            const double ns = run.GetAdjustedCPUTime() / kInputs;  // per-iteration ns over kInputs evaluations
-            if (run.run_type == Run::RT_Aggregate && run.aggregate_name == "median")
-                median[name.substr(0, name.size() - std::string("_median").size())] = ns;
-            else if (run.run_type == Run::RT_Iteration)
-                single.emplace(name, ns);
-        }
-    }
-    std::map<std::string, double> result() const {
-        auto r = single;
-        for (const auto& [k, v] : median) r[k] = v;
-        return r;
-    }
-};
-
 void print_goal_ratios(const std::map<std::string, double>& t) {
     const auto get = [&](const std::string& n) { auto it = t.find(n); return it == t.end() ? -1.0 : it->second; };
     const double base = get("scalar_double/schuler2012/above");
@@ -137,9 +117,10 @@ void print_goal_ratios(const std::map<std::string, double>& t) {
 int main(int argc, char** argv) {
     register_all();
     benchmark::Initialize(&argc, argv);
-    RatioReporter reporter;
+    // CPU ns per evaluation: each iteration evaluates kInputs points
+    airmass::bench::RunTimes reporter([](const auto& run) { return run.GetAdjustedCPUTime() / kInputs; });
     benchmark::RunSpecifiedBenchmarks(&reporter);
-    print_goal_ratios(reporter.result());
+    print_goal_ratios(reporter.all());
     benchmark::Shutdown();
     return 0;
 }

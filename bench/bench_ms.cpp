@@ -20,6 +20,7 @@
 #include "airmass/multiple_scattering.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
+#include "run_times.hpp"
 
 namespace {
 
@@ -172,29 +173,14 @@ void print_accuracy() {
                 errors.size(), p95, worst, day_p95, day_worst);
 }
 
-// Keeps the wall time (ms) of each run to print the ratio to the baseline.
-class RatioReporter : public benchmark::ConsoleReporter {
-public:
-    std::map<std::string, double> ms;
-    void ReportRuns(const std::vector<Run>& runs) override {
-        ConsoleReporter::ReportRuns(runs);
-        for (const auto& run : runs)
-            if (run.run_type == Run::RT_Iteration) ms[run.benchmark_name()] = run.GetAdjustedRealTime();
-    }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
-    RatioReporter reporter;
+    airmass::bench::RunTimes reporter([](const auto& run) { return run.GetAdjustedRealTime(); });  // ms
     benchmark::RunSpecifiedBenchmarks(&reporter);
-    const auto find = [&](const std::string& prefix) {
-        for (const auto& [name, v] : reporter.ms)
-            if (name.rfind(prefix, 0) == 0) return v;
-        return -1.0;
-    };
-    const double now = find("BM_PrecomputeOrders/2/"), before = find("BM_PrecomputeOrdersPlainStop/2/");
+    const double now = reporter.first_with_prefix("BM_PrecomputeOrders/2/"),
+                 before = reporter.first_with_prefix("BM_PrecomputeOrdersPlainStop/2/");
     if (now > 0 && before > 0)
         std::printf("\nearth, 48 wavelengths, 2 threads: default %.0f ms, plain-sum stop + tail %.0f ms: %.2fx "
                     "(issue 14 goal 6: <= 300 ms: %s)\n",

@@ -42,6 +42,7 @@
 #include "airmass/optical_depth.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/sky.hpp"
+#include "run_times.hpp"
 
 namespace {
 
@@ -448,29 +449,6 @@ void register_all() {
 }
 
 // ns per point (CPU): the median with repetitions, else the one run.
-class PerPointReporter : public benchmark::ConsoleReporter {
-public:
-    std::map<std::string, double> single, median;
-    void ReportRuns(const std::vector<Run>& runs) override {
-        ConsoleReporter::ReportRuns(runs);
-        for (const auto& run : runs) {
-            const std::string name = run.benchmark_name();
-            const auto it = run.counters.find("items_per_second");
-            if (it == run.counters.end() || !(it->second.value > 0)) continue;
-            const double ns = 1e9 / it->second.value;
-            if (run.run_type == Run::RT_Aggregate && run.aggregate_name == "median")
-                median[name.substr(0, name.size() - std::string("_median").size())] = ns;
-            else if (run.run_type == Run::RT_Iteration)
-                single.emplace(name, ns);
-        }
-    }
-    double get(const std::string& n) const {
-        if (auto it = median.find(n); it != median.end()) return it->second;
-        if (auto it = single.find(n); it != single.end()) return it->second;
-        return -1.0;
-    }
-};
-
 // ---- report ----------------------------------------------------------------------------------
 
 struct Row {
@@ -527,7 +505,7 @@ std::vector<Row> measure_all_errors() {
     return rows;
 }
 
-void print_summary(const std::vector<Row>& rows, const PerPointReporter& rep) {
+void print_summary(const std::vector<Row>& rows, const airmass::bench::RunTimes& rep) {
     std::printf(
         "\nSummary (one thread, CPU ns per point over sky view-ray nodes; ratio = this / exact_batch64 of the "
         "same atmosphere, same run; T-table ratio also against exact_batch64+T, which includes the exp per "
@@ -564,7 +542,10 @@ int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
     const std::vector<Row> rows = measure_all_errors();
     register_all();
-    PerPointReporter reporter;
+    airmass::bench::RunTimes reporter([](const auto& run) {  // ns per point, from the items counter
+        const auto it = run.counters.find("items_per_second");
+        return it == run.counters.end() || !(it->second.value > 0) ? -1.0 : 1e9 / it->second.value;
+    });
     benchmark::RunSpecifiedBenchmarks(&reporter);
     print_summary(rows, reporter);
     benchmark::Shutdown();
