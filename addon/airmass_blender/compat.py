@@ -68,6 +68,57 @@ def prepare_float_image(image):
         image.use_half_precision = False
 
 
+# Non-colour data (tables of numbers): "Non-Color" in Blender's OpenColorIO configs of 3.4
+# (verified in Debian's 3.4), 4.x and 5.x (their config.ocio; not run here).
+DATA_COLORSPACE = "Non-Color"
+
+
+def packed_float_image(name, width, height, flat, colorspace=None, properties=None):
+    """A new 32-bit float RGBA image of `flat` (width·height·4 floats, bottom row first), packed
+    into the .blend — Blender packs a float image as OpenEXR, so bytes(image.packed_file.data) is
+    the EXR file — with the custom properties `properties` (a dict).
+
+    `colorspace`: None tags the image with float_image_colorspace() (pixels in the working space),
+    else that name (DATA_COLORSPACE for tables of numbers). After packing the image must be packed,
+    float, width × height, and give pixel 0 back: an 8-bit or half image would have clamped or
+    rounded it. On any failure the image is removed again and the error names it and the step."""
+    count = width * height * 4
+    if len(flat) != count:
+        raise ValueError("image %r: %d values for %dx%d RGBA (%d)" % (name, len(flat), width, height, count))
+    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    step = "colour space %r" % (colorspace or float_image_colorspace())
+    try:
+        if colorspace is None:
+            set_float_image_colorspace(image)
+        else:
+            image.colorspace_settings.name = colorspace
+        step = "32-bit float"
+        prepare_float_image(image)
+        step = "pixels"
+        image.pixels.foreach_set(flat)
+        step = "pack"
+        image.pack()
+        step = "check after packing"
+        first = float(flat[0])
+        if image.packed_file is None:
+            raise RuntimeError("not packed")
+        if not image.is_float:
+            raise RuntimeError("not a float image")
+        if tuple(image.size) != (width, height):
+            raise RuntimeError("%dx%d, not %dx%d" % (image.size[0], image.size[1], width, height))
+        back = image.pixels[0]  # one read: copies the pixels once (RNA reads the whole array)
+        if abs(back - first) > 1e-6 * max(1.0, abs(first)):
+            raise RuntimeError("pixel 0 reads back %r, not %r" % (back, first))
+        step = "custom properties"
+        for key, value in (properties or {}).items():
+            image[key] = value
+    except Exception as e:
+        bpy.data.images.remove(image)
+        raise RuntimeError("Blender could not make %r a packed 32-bit float image (%s): %s"
+                           % (name, step, e)) from e
+    return image
+
+
 def rec709_to_working_matrix():
     """3×3 matrix (rows) taking linear Rec.709 RGB — what libairmass_c returns — to the working
     space's RGB. Identity unless Blender ≥ 5.0 and the file's working space is not Rec.709."""

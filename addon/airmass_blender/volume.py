@@ -102,24 +102,19 @@ def sun_inputs(choice, spec, description, unit_name):
     return table, ms
 
 
-def _data_image(name, role, rgb, created):
+def _data_image(name, role, rgb, created, properties=None):
     """A packed 32-bit float image of rgb [rows, columns, 3] (bottom row first), Non-Color data,
-    made through Blender's image API."""
+    made through Blender's image API (compat.packed_float_image), registered in `created`."""
     import numpy as np
     n_r, n_mu, _ = rgb.shape
     px = np.ones((n_r, n_mu, 4), dtype=np.float32)
     px[..., :3] = rgb
-    image = created.add(bpy.data.images.new(name, n_mu, n_r, alpha=True, float_buffer=True))
-    image.colorspace_settings.name = "Non-Color"
-    compat.prepare_float_image(image)
-    image.pixels.foreach_set(px.ravel())
-    image.pack()
-    # The table holds masses in km (up to hundreds): an 8-bit packing would clamp them to 1.
-    if image.packed_file is None or not image.is_float or abs(image.pixels[0] - float(px.flat[0])) > \
-            1e-6 * max(1.0, abs(float(px.flat[0]))):
-        raise RuntimeError("Blender could not keep the %s as a packed float image" % name)
-    image["airmass_role"] = role
-    return image
+    # The table holds masses in km (up to hundreds): an 8-bit packing would clamp them to 1, which
+    # packed_float_image's check of pixel 0 after packing catches.
+    props = {ROLE: role}
+    props.update(properties or {})
+    return created.add(compat.packed_float_image(name, n_mu, n_r, px.ravel(), colorspace=compat.DATA_COLORSPACE,
+                                                 properties=props))
 
 
 def sun_lighting(description, light, table, created, ms=None):
@@ -135,9 +130,8 @@ def sun_lighting(description, light, table, created, ms=None):
         for ch, name in enumerate(group):
             rgb[..., ch] = table[:, :, first + ch]
             channel[name] = (len(images), ch)
-        image = _data_image(SUN_COLUMNS_NAME, SUN_TABLE_ROLES[0], rgb, created)
-        image["airmass_constituents"] = ",".join(group)
-        images.append(image)
+        images.append(_data_image(SUN_COLUMNS_NAME, SUN_TABLE_ROLES[0], rgb, created,
+                                  {"airmass_constituents": ",".join(group)}))
     ms_image = _data_image(SUN_MS_NAME, SUN_TABLE_ROLES[1], ms[0], created) if ms is not None else None
     return material.SunLighting(
         direction=light["direction"], irradiance_rgb=light["irradiance_top_rgb"],

@@ -124,24 +124,12 @@ def _restore_world(scene, old_image):
 
 
 def build_sky_image(name, width, height, flat, metadata, working_space):
-    """A new packed 32-bit float image of `flat` (width·height·4 floats, bottom row first, in the
-    working space): Blender packs a float image as OpenEXR, so bytes(image.packed_file.data) is
-    the EXR file. The library's metadata become custom properties. Removed again on failure."""
-    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
-    try:
-        compat.set_float_image_colorspace(image)
-        compat.prepare_float_image(image)
-        image.pixels.foreach_set(flat)
-        image.pack()  # a float image packs as OpenEXR (32-bit), in the .blend
-        if image.packed_file is None or tuple(image.size) != (width, height):
-            raise RuntimeError("Blender could not pack the sky image")
-        for key, value in metadata.items():
-            image[key] = value
-        image[PIXELS_KEY] = "linear Rec.709 -> %s" % working_space
-    except Exception:
-        bpy.data.images.remove(image)
-        raise
-    return image
+    """The sky as a new packed 32-bit float image (compat.packed_float_image) of `flat`
+    (width·height·4 floats, bottom row first, in the working space): bytes(image.packed_file.data)
+    is the EXR file. The library's metadata become custom properties. Removed again on failure."""
+    properties = dict(metadata)
+    properties[PIXELS_KEY] = "linear Rec.709 -> %s" % working_space
+    return compat.packed_float_image(name, width, height, flat, properties=properties)
 
 
 def sky_options(settings, sun_disc=None):

@@ -213,6 +213,61 @@ def image(version):
     return Strict(attrs)
 
 
+class Pixels:
+    """Image.pixels: foreach_set of exactly width·height·4 values; an 8-bit buffer clamps to [0, 1]."""
+
+    def __init__(self, count, clamp):
+        self.values, self.count, self.clamp = [0.0] * count, count, clamp
+
+    def foreach_set(self, seq):
+        if len(seq) != self.count:
+            raise RuntimeError("internal error setting the array")
+        self.values = [min(1.0, max(0.0, float(v))) if self.clamp else float(v) for v in seq]
+
+    def __getitem__(self, i):
+        return self.values[i]
+
+
+class ImageBlock(Strict):
+    """A new image datablock; `fault`: "no pack" (pack() leaves packed_file None), "8 bit" (the
+    buffer is bytes: values clamped, is_float False)."""
+
+    def __init__(self, version, name, width, height, fault=None):
+        base = object.__getattribute__(image(version), "_attrs")
+        eight = fault == "8 bit"
+        super().__init__(dict(base, name=name, size=(width, height), is_float=not eight, packed_file=None,
+                              pixels=Pixels(width * height * 4, eight)))
+        object.__setattr__(self, "fault", fault)
+        object.__setattr__(self, "props", {})
+
+    def pack(self):
+        if object.__getattribute__(self, "fault") != "no pack":
+            object.__getattribute__(self, "_attrs")["packed_file"] = object()
+
+    def __setitem__(self, key, value):
+        object.__getattribute__(self, "props")[key] = value
+
+    def __getitem__(self, key):
+        return object.__getattribute__(self, "props")[key]
+
+
+class Images(list):
+    """bpy.data.images: new(name, width, height, alpha, float_buffer) and remove(image)."""
+
+    def __init__(self, version, fault=None):
+        super().__init__()
+        self.version, self.fault = version, fault
+
+    def new(self, name, width, height, alpha=False, float_buffer=False):
+        assert alpha and float_buffer
+        img = ImageBlock(self.version, name, width, height, self.fault)
+        self.append(img)
+        return img
+
+    def remove(self, img):
+        list.remove(self, img)
+
+
 # ---- tests -----------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("version", VERSIONS)
@@ -233,6 +288,49 @@ def test_working_space_5(monkeypatch, space):
     assert compat.working_space() == space
     img = image((5, 0, 0))
     assert compat.set_float_image_colorspace(img) == space
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+@pytest.mark.parametrize("data", [False, True])
+def test_packed_float_image(monkeypatch, version, data):
+    compat, _ = install(monkeypatch, version)
+    images = sys.modules["bpy"].data.images = Images(version)
+    flat = [37.5, 0.25, 2.0, 1.0] * 6  # 3 × 2 pixels: more than 1, which an 8-bit buffer clamps
+    img = compat.packed_float_image("Table", 3, 2, flat, colorspace=compat.DATA_COLORSPACE if data else None,
+                                    properties={"airmass_role": "sun columns"})
+    assert list(images) == [img] and img.packed_file is not None and img.pixels.values == flat
+    expected = "Non-Color" if data else ("Linear" if version < (4, 0, 0) else "Linear Rec.709")
+    assert img.colorspace_settings.name == expected
+    if version < (5, 0, 0):
+        assert img.use_half_precision is False
+    assert img["airmass_role"] == "sun columns"
+
+
+@pytest.mark.parametrize("fault, what", [("no pack", "not packed"), ("8 bit", "not a float image")])
+def test_packed_float_image_faults_remove_the_image(monkeypatch, fault, what):
+    compat, _ = install(monkeypatch, (4, 2, 0))
+    images = sys.modules["bpy"].data.images = Images((4, 2, 0), fault)
+    with pytest.raises(RuntimeError, match="'Sky'.*check after packing.*%s" % what):
+        compat.packed_float_image("Sky", 2, 1, [37.5, 0.0, 0.0, 1.0] * 2)
+    assert list(images) == []
+    with pytest.raises(RuntimeError, match=r"'Sky'.*colour space 'Linear'.*not found"):  # 4.x has no 'Linear'
+        compat.packed_float_image("Sky", 2, 1, [0.5] * 8, colorspace="Linear")
+    assert list(images) == []
+    with pytest.raises(ValueError, match="'Sky': 7 values for 2x1 RGBA"):
+        compat.packed_float_image("Sky", 2, 1, [0.5] * 7)
+    assert list(images) == []
+
+
+def test_packed_float_image_checks_pixel_0(monkeypatch):
+    """A float buffer that does not give the value back (a half or clamped packing) is refused."""
+    compat, _ = install(monkeypatch, (3, 4, 1))
+    images = sys.modules["bpy"].data.images = Images((3, 4, 1))
+    original = Pixels.foreach_set
+    monkeypatch.setattr(Pixels, "foreach_set", lambda self, seq: (original(self, seq),
+                                                                  self.values.__setitem__(0, 37.5 + 0.01))[0])
+    with pytest.raises(RuntimeError, match="'Sky'.*pixel 0 reads back 37.51, not 37.5"):
+        compat.packed_float_image("Sky", 1, 1, [37.5, 0.0, 0.0, 1.0], properties={"k": 1})
+    assert list(images) == []
 
 
 @pytest.mark.parametrize("version", VERSIONS)
