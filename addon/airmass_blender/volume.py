@@ -114,7 +114,7 @@ def _data_image(name, role, rgb, created, properties=None):
     props = {ROLE: role}
     props.update(properties or {})
     return created.add(compat.packed_float_image(name, n_mu, n_r, px.ravel(), colorspace=compat.DATA_COLORSPACE,
-                                                 properties=props))
+                                                 properties=props, check_value=True))
 
 
 def sun_lighting(description, light, table, created, ms=None):

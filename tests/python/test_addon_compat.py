@@ -329,8 +329,11 @@ def test_packed_float_image_checks_pixel_0(monkeypatch):
     monkeypatch.setattr(Pixels, "foreach_set", lambda self, seq: (original(self, seq),
                                                                   self.values.__setitem__(0, 37.5 + 0.01))[0])
     with pytest.raises(RuntimeError, match="'Sky'.*pixel 0 reads back 37.51, not 37.5"):
-        compat.packed_float_image("Sky", 1, 1, [37.5, 0.0, 0.0, 1.0], properties={"k": 1})
+        compat.packed_float_image("Sky", 1, 1, [37.5, 0.0, 0.0, 1.0], properties={"k": 1}, check_value=True)
     assert list(images) == []
+    # without check_value (a sky: reading a pixel copies them all) the value is not read back
+    img = compat.packed_float_image("Sky", 1, 1, [37.5, 0.0, 0.0, 1.0])
+    assert list(images) == [img]
 
 
 @pytest.mark.parametrize("version", VERSIONS)
