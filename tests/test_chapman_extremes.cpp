@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <vector>
 
@@ -163,6 +164,78 @@ TEST(ChapmanExtremes, Exp2ppIsAccurateTo12Bits) {
         }
     }
     EXPECT_LT(worst, 1.0 / 4096);
+}
+
+// x up to the largest double (float: float), where c·a·b of the `airmass` method's base used to
+// overflow while the shared denominator did not (inf at 90°, NaN just below the horizon). The
+// references are the asymptotes: Ch(x, 90°) → √(πx/2); Ch(x, χ) → 1/cos χ once x cos²χ ≫ 1;
+// below the horizon the mantissa → 2 Ch∥(x sin χ).
+TEST(ChapmanExtremes, HugeXNearTheHorizon) {
+    const double big[] = {1e200, 1e250, 1e300, 1e307, std::numeric_limits<double>::max()};
+    for (double x : big) {
+        const double horizontal = std::sqrt(0.5 * 3.141592653589793) * std::sqrt(x);
+        const double mu = 1e-90;  // x mu² ≥ 1e20
+        const double s = std::sqrt(1.0 - mu * mu);
+        const std::vector<double> xs(7, x), cs = {0.0, mu, -mu, 0.0, mu, -mu, 0.0}, ss = {1.0, s, s, 1.0, s, s, 1.0};
+        std::vector<double> mant(7), ls(7);
+        chapman_scaled_batch<double>(ChapmanMethod::airmass, xs, cs, ss, mant, ls);
+        for (std::size_t i = 0; i < 7; ++i) {
+            const auto one = chapman_scaled(ChapmanMethod::airmass, x, ZenithAngle<double>{cs[i], ss[i]});
+            const double expect = cs[i] == 0.0 ? horizontal : cs[i] > 0.0 ? 1.0 / mu : 2.0 * horizontal;
+            EXPECT_NEAR(one.mantissa / expect, 1.0, 1e-6) << "x " << x << " cos " << cs[i];
+            EXPECT_NEAR(mant[i] / expect, 1.0, 1e-6) << "batch, x " << x << " cos " << cs[i];
+            EXPECT_TRUE(std::isfinite(one.log_scale) && std::isfinite(ls[i])) << "x " << x;
+        }
+    }
+    // float: from 1e28 on, within a degree of the horizon, against the double form
+    for (float x : {1e28f, 1e30f, 1e34f, std::numeric_limits<float>::max()})
+        for (double chi : {89.0, 90.0, 90.001, 91.0}) {
+            const auto f = chapman_scaled(ChapmanMethod::airmass, x, ZenithAngle<float>::from_degrees(chi));
+            const auto d = chapman_scaled(ChapmanMethod::airmass, double(x), ZenithAngle<double>::from_degrees(chi));
+            ASSERT_TRUE(std::isfinite(f.mantissa) && std::isfinite(f.log_scale)) << "x " << x << " chi " << chi;
+            EXPECT_NEAR(double(f.mantissa) / d.mantissa, 1.0, 1e-4) << "x " << x << " chi " << chi;
+            EXPECT_NEAR(double(f.log_scale), d.log_scale, 1e-4 * std::max(1.0, d.log_scale)) << "x " << x;
+        }
+    // the exact method at x = +inf: the plane-parallel limit, not Boost's evaluation_error
+    const double inf = std::numeric_limits<double>::infinity();
+    EXPECT_DOUBLE_EQ(chapman(ChapmanMethod::exact, inf, ZenithAngle<double>::from_degrees(60.0)), 2.0);
+    EXPECT_NO_THROW(chapman_scaled(ChapmanMethod::exact, inf, ZenithAngle<double>::from_cos(1e-320)));
+}
+
+// Ch(X + h, χ) e^(−h) where X + h exceeds the largest double: 0 from the point upward (its
+// density is e^(−h)); below the horizon the line's mass both ways from its periapsis h_p
+// scale heights up, 2 Ch(X + h_p, 90°) e^(−h_p) — checked against that identity evaluated where
+// nothing overflows. Scalar and batch, both accurate methods; nothing thrown, nothing NaN.
+TEST(ChapmanExtremes, RescaledBeyondTheLargestDouble) {
+    const double X = 760.0, inf = std::numeric_limits<double>::infinity();
+    for (auto m : {ChapmanMethod::exact, ChapmanMethod::airmass}) {
+        for (double h : {std::numeric_limits<double>::max(), 1e308, inf})
+            for (double chi : {0.0, 60.0, 90.0}) {
+                const auto a = ZenithAngle<double>::from_degrees(chi);
+                EXPECT_EQ(chapman_rescaled(m, X, h, a), 0.0) << chapman_method_name(m) << " h " << h << " chi " << chi;
+            }
+        const double h = 1e308;
+        std::vector<double> hs, cs, ss, expect;
+        for (double hp : {-5.0, 0.0, 10.0, 300.0}) {
+            const double s = (X + hp) / (X + h), c = -std::sqrt(1.0 - s * s);
+            const double r = chapman_rescaled(m, X, h, ZenithAngle<double>{c, s});
+            const double ref = 2.0 * chapman_rescaled(m, X, hp, ZenithAngle<double>{0.0, 1.0});
+            EXPECT_NEAR(r / ref, 1.0, 1e-9) << chapman_method_name(m) << " h_p " << hp;
+            hs.push_back(h), cs.push_back(c), ss.push_back(s), expect.push_back(ref);
+        }
+        hs.push_back(inf), cs.push_back(-1.0), ss.push_back(0.0), expect.push_back(-1.0);  // not NaN
+        hs.push_back(inf), cs.push_back(0.5), ss.push_back(std::sqrt(0.75)), expect.push_back(0.0);
+        std::vector<double> out(hs.size());
+        chapman_rescaled_batch<double>(m, X, hs, cs, ss, out);
+        for (std::size_t i = 0; i < out.size(); ++i) {
+            ASSERT_FALSE(std::isnan(out[i])) << chapman_method_name(m) << " lane " << i;
+            if (expect[i] > 0.0) {
+                EXPECT_NEAR(out[i] / expect[i], 1.0, 1e-9) << chapman_method_name(m) << " batch lane " << i;
+            } else if (expect[i] == 0.0) {
+                EXPECT_EQ(out[i], 0.0) << chapman_method_name(m) << " batch lane " << i;
+            }
+        }
+    }
 }
 
 }  // namespace

@@ -5,6 +5,9 @@
 
 #include <cmath>
 #include <random>
+#include <glm/geometric.hpp>
+#include <stdexcept>
+#include <limits>
 
 #include "airmass/geometry.hpp"
 
@@ -215,6 +218,43 @@ TEST(Geometry, FloatIsFiniteAndCloseToDouble) {
             EXPECT_TRUE(std::isfinite(rf.periapsis_altitude_m()));
         }
     }
+}
+
+// Lengths whose squares leave the type's range: radius and altitude along the ray are numbers
+// up to the largest length (they used to be inf and NaN from 1.3e154 m, float 1.8e19 m), and
+// from_vectors takes directions and origins of any finite, non-zero size.
+TEST(Geometry, HugeAndTinyLengths) {
+    const PlanetRay<double> up{6360e3, 0.0, ZenithAngle<double>::from_degrees(45.0)};
+    for (double t : {1e155, 1e200, 1e300, std::numeric_limits<double>::max() / 2}) {
+        const double r = up.radius_at(t), h = up.altitude_at(t);
+        ASSERT_TRUE(std::isfinite(r) && std::isfinite(h)) << t;
+        EXPECT_NEAR(r / t, 1.0, 1e-12) << t;
+        EXPECT_NEAR(h / t, 1.0, 1e-12) << t;
+        EXPECT_NEAR(up.zenith_at(t).cos_chi, 1.0, 1e-12) << t;
+    }
+    const PlanetRay<float> upf{6360e3f, 0.0f, ZenithAngle<float>::from_degrees(45.0)};
+    for (float t : {1e20f, 1e30f, std::numeric_limits<float>::max() / 4}) {
+        ASSERT_TRUE(std::isfinite(upf.radius_at(t)) && std::isfinite(upf.altitude_at(t))) << t;
+        EXPECT_NEAR(upf.altitude_at(t) / t, 1.0f, 1e-5f) << t;
+    }
+    const double R = 6360e3;
+    const Vec3<double> o{0.0, 3e5, R + 1e3}, d{0.3, -0.2, 0.5};
+    const auto ref = PlanetRay<double>::from_vectors(R, o, d);
+    for (double k : {1e-300, 1e-200, 1e155, 1e300}) {
+        const auto ray = PlanetRay<double>::from_vectors(R, o, d * k);
+        EXPECT_NEAR(ray.zenith.cos_chi, ref.zenith.cos_chi, 1e-15) << k;
+        EXPECT_NEAR(ray.zenith.sin_chi, ref.zenith.sin_chi, 1e-15) << k;
+        EXPECT_EQ(ray.altitude_m, ref.altitude_m) << k;
+    }
+    for (double k : {1e160, 1e300}) {  // an origin whose squared length overflows
+        const auto far = PlanetRay<double>::from_vectors(R, o * k, d);
+        ASSERT_TRUE(std::isfinite(far.altitude_m)) << k;
+        EXPECT_NEAR(far.altitude_m / (glm::length(o) * k), 1.0, 1e-12) << k;
+        EXPECT_NEAR(far.zenith.cos_chi, ref.zenith.cos_chi, 1e-6) << k;  // the origin's direction
+    }
+    EXPECT_THROW(PlanetRay<double>::from_vectors(R, o, Vec3<double>(0.0)), std::invalid_argument);
+    EXPECT_THROW(PlanetRay<double>::from_vectors(R, o, Vec3<double>(1.0, std::numeric_limits<double>::infinity(), 0.0)),
+                 std::invalid_argument);
 }
 
 }  // namespace

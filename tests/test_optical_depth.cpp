@@ -155,6 +155,27 @@ TEST(OpticalDepth, IntegralOfRadiusAtExtremeLengths) {
             }
 }
 
+// A finite far end beyond 1.3e154 m (float 1.8e19 m): the same mass as to infinity (it was NaN,
+// or a quadrature's garbage, when the squared length overflowed).
+TEST(OpticalDepth, SegmentsToHugeFiniteEnds) {
+    const PlanetRay<double> up{6360e3, 0.0, ZenithAngle<double>::from_degrees(0.0)};
+    const PlanetRay<double> slant{6360e3, 2e3, ZenithAngle<double>::from_degrees(70.0)};
+    const double inf = std::numeric_limits<double>::infinity();
+    for (const auto* ray : {&up, &slant})
+        for (double H : {1e-3, 8000.0, 1e7})
+            for (double end : {1e155, 1e200, std::numeric_limits<double>::max()}) {
+                const double to_inf = exponential_segment_mass(ChapmanMethod::airmass, *ray, H, 0.0, 0.0, inf);
+                const double got = exponential_segment_mass(ChapmanMethod::airmass, *ray, H, 0.0, 0.0, end);
+                EXPECT_NEAR(got, to_inf, 1e-12 * to_inf) << "H " << H << " end " << end;  // 0 both: H = 1 mm from 2 km
+            }
+    const PlanetRay<float> upf{6360e3f, 0.0f, ZenithAngle<float>::from_degrees(0.0)};
+    const float to_inf = exponential_segment_mass(ChapmanMethod::airmass, upf, 8000.0f, 0.0f, 0.0f,
+                                                  std::numeric_limits<float>::infinity());
+    for (float end : {1e20f, 1e30f, std::numeric_limits<float>::max()})
+        EXPECT_NEAR(exponential_segment_mass(ChapmanMethod::airmass, upf, 8000.0f, 0.0f, 0.0f, end) / to_inf, 1.0f,
+                    1e-5f) << end;
+}
+
 // Piecewise-linear profiles (tent, constant, knots with a jump) in closed form vs quadrature.
 TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     std::vector<DensityProfile> profiles;

@@ -41,7 +41,8 @@ struct PlanetRay {
     T altitude_m;          // h0 of the origin above the planet surface (≥ 0 for physical rays)
     ZenithAngle<T> zenith;  // of the direction, at the origin
 
-    // From a planet-centred origin (metres) and a direction (need not be unit).
+    // From a planet-centred origin (metres) and a direction (need not be unit; finite and non-zero,
+    // else std::invalid_argument).
     static PlanetRay from_vectors(T planet_radius_m, Vec3<T> origin_m, Vec3<T> direction);
 
     T radius_m() const { return planet_radius_m + altitude_m; }              // r0

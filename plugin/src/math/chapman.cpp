@@ -189,10 +189,31 @@ T log_chapman(ChapmanMethod method, T x, ZenithAngle<T> chi) {
     return std::log(r.mantissa) + r.log_scale;
 }
 
+namespace {
+// X + h beyond the largest T (so h is, to rounding, ≥ that): Ch(X + h, χ) e^(−h) without forming
+// X + h. Above the horizon (and at it) the ray climbs from the point, where the density is
+// e^(−h) = 0 relative to the reference. Below it, the line's mass both ways from its periapsis
+// h_p = (X + h) sin χ − X scale heights above the reference, 2 Ch(X + h_p, 90°) e^(−h_p), less the
+// part behind the point, which is of e^(−h) = 0.
+template <class T>
+T rescaled_beyond_range(ChapmanMethod method, T X, T h, ZenithAngle<T> chi) {
+    if (!(chi.cos_chi < T(0))) return T(0);
+    const T hp = h * chi.sin_chi - X * (T(1) - chi.sin_chi);
+    if (!(hp < h)) return T(0);  // sin χ rounded to 1: the horizon
+    return T(2) * chapman_rescaled(method, X, hp, ZenithAngle<T>{T(0), T(1)});
+}
+template <class T>
+bool beyond_range(T x) {
+    return x > std::numeric_limits<T>::max();  // +inf from X + h; NaN stays NaN
+}
+}  // namespace
+
+
 template <class T>
 T chapman_rescaled(ChapmanMethod method, T X, T h, ZenithAngle<T> chi) {
+    if (beyond_range(X + h)) return rescaled_beyond_range(method, X, h, chi);
     const auto r = scaled_one<T>(method, X + h, chi.cos_chi, chi.sin_chi);
-    return r.mantissa * std::exp(r.log_scale - h);
+    return r.mantissa * std::exp(detail::rescaled_exponent(r.log_scale, X, h, chi.cos_chi, chi.sin_chi));
 }
 
 template <class T>
@@ -220,12 +241,20 @@ void chapman_rescaled_batch(ChapmanMethod method, T X, std::span<const T> h, std
 #if AIRMASS_SIMD_DISPATCH
     if (airmass_avx2(method)) {
         check_lengths(h.size(), cos_chi.size(), sin_chi.size());
-        return detail::airmass_rescaled_batch_avx2<T>(detail::airmass_table(), X, h.data(), cos_chi.data(),
-                                                      sin_chi.data(), h.size(), out.data());
-    }
+        detail::airmass_rescaled_batch_avx2<T>(detail::airmass_table(), X, h.data(), cos_chi.data(), sin_chi.data(),
+                                               h.size(), out.data());
+    } else
 #endif
-    batch_dispatch<T>(method, h.size(), [X, h](size_t i) { return X + h[i]; }, cos_chi, sin_chi,
-                      [&](size_t i, ScaledChapman<T> r) { out[i] = r.mantissa * std::exp(r.log_scale - h[i]); });
+    {
+        batch_dispatch<T>(method, h.size(), [X, h](size_t i) { return X + h[i]; }, cos_chi, sin_chi,
+                          [&](size_t i, ScaledChapman<T> r) {
+                              out[i] = r.mantissa * std::exp(detail::rescaled_exponent(r.log_scale, X, h[i], cos_chi[i], sin_chi[i]));
+                          });
+    }
+    // Points whose X + h is beyond the largest T, as the scalar form.
+    for (size_t i = 0; i < h.size(); ++i)
+        if (beyond_range(X + h[i])) [[unlikely]]
+            out[i] = rescaled_beyond_range(method, X, h[i], ZenithAngle<T>{cos_chi[i], sin_chi[i]});
 }
 
 template <class T>

@@ -116,7 +116,7 @@ struct AirmassTable {
         const T inv = T(1) / D;
         const T w = b * q * inv;
         const T v = mu * (T(1) + Y) * a * q * inv;
-        const T base = c * ab * inv;
+        const T base = c * (ab * inv);  // ab · inv = 1/q ≤ 1 first: c · ab overflows for x near the largest T
         return base * interpolate(w, std::min(v, T(1)));
     }
 

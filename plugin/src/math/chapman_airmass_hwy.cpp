@@ -196,7 +196,7 @@ HWY_INLINE void stage_a(const AirmassTable& table, V sx, V m, Chunk& ch, size_t 
         hwy::Prefetch(table.coefficients + ch.off[l + k]);
         hwy::Prefetch(table.coefficients + ch.off[l + k] + 8);
     }
-    hn::Store(hn::Mul(hn::Mul(c, ab), inv_D), dd, ch.factor + l);
+    hn::Store(hn::Mul(c, hn::Mul(ab, inv_D)), dd, ch.factor + l);  // c · (1/q): c · ab overflows near DBL_MAX
     if constexpr (kSlow) {
         uint8_t bits[8] = {};
         hn::StoreMaskBits(dd, slow, bits);
@@ -343,7 +343,7 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
     };
     const auto finish = [&](size_t i, const ScaledChapman<T>& r) {
         if constexpr (kRescaled) {
-            out1[i] = r.mantissa * std::exp(r.log_scale - xh[i]);
+            out1[i] = r.mantissa * std::exp(detail::rescaled_exponent(r.log_scale, X, xh[i], cs[i], ss[i]));
         } else {
             out1[i] = r.mantissa;
             out2[i] = r.log_scale;
@@ -469,7 +469,11 @@ HWY_INLINE void batch(const AirmassTable& table, T X, const T* xh, const T* cs, 
             bool stored = false;
             if (j < full) {
                 if constexpr (kRescaled) {
-                    stored = store_rescaled4(mantissa, hn::Sub(log_scale, load4(xh + i0 + 4 * j)), out1 + i0 + 4 * j);
+                    // log_scale − h on the lanes, unless an h ≥ 2^20 would leave too few digits of
+                    // it: then per lane (rescaled_exponent, as the scalar form).
+                    const V hv = load4(xh + i0 + 4 * j);
+                    stored = hn::AllTrue(dd, hn::Lt(hv, hn::Set(dd, 1048576.0))) &&
+                             store_rescaled4(mantissa, hn::Sub(log_scale, hv), out1 + i0 + 4 * j);
                 } else {
                     store4(mantissa, out1 + i0 + 4 * j);
                     store4(log_scale, out2 + i0 + 4 * j);

@@ -14,6 +14,7 @@
 // Below the horizon the reflection identity (chapman_internal.hpp) is exact.
 #include <boost/math/quadrature/tanh_sinh.hpp>
 #include <cmath>
+#include <limits>
 
 #include "chapman_internal.hpp"
 
@@ -36,6 +37,9 @@ double chapman_upper_exact(double x, double mu) {
     // Above x = 1e100 numerator and root are divided by x: (x mu / t)² overflowed from x ≈ 1e154 on
     // and gave Ch = 0 (ln Ch = -inf) from x ≈ 1e200, a NaN and Boost's evaluation_error at 1e308
     // (fuzz_csv). Below, the form (and every bit of the tables built from it) is unchanged.
+    // x = +inf: the plane-parallel limit, as the `airmass` method (the quadrature of the scaled
+    // form would divide by 0 at mu = 0 and Boost throw); NaN stays NaN.
+    if (!(x <= std::numeric_limits<double>::max())) return mu > 0.0 ? 1.0 / mu : x;
     const bool scaled = x > 1e100;
     const auto integrand = [x, mu, scaled](double t, double /*distance_to_endpoint*/) {
         if (t <= 0.0) return mu > 0.0 ? 0.0 : std::sqrt(2.0) * std::sqrt(x);

@@ -27,6 +27,16 @@ inline ScaledChapman<T> reflect_below_horizon(T x, T mu, T sin_chi, Upper upper,
     return {T(2) * horizontal(x0) - upper(x, -mu) * std::exp(-d), d};
 }
 
+// The exponent of Ch_h(X, h, χ) = mantissa · e^(log_scale − h). Below the horizon every method's
+// log_scale is d = (X + h) cos²χ/(1 + sin χ), and d − h = X cos²χ/(1 + sin χ) − h sin χ (= X − x₀,
+// the periapsis' depth below the reference level): formed so, without subtracting two terms of
+// the size of h (whose rounding, h·1e-16, is the whole exponent for h = 1e308).
+template <class T>
+inline T rescaled_exponent(T log_scale, T X, T h, T cos_chi, T sin_chi) {
+    if (log_scale == T(0)) return -h;
+    return X * cos_chi * cos_chi / (T(1) + sin_chi) - h * sin_chi;
+}
+
 // ---- the `airmass` method's base (chapman_airmass.hpp, generator) -------------------
 // Base function: Schüler's rational form B = c/((c − 1) mu + 1) with a horizontal
 // value c = 1 + sqrt(pi x / 2) that is right at both ends (1 at x = 0, ~sqrt(pi x/2)

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
 #include <numbers>
 
 #include <glm/geometric.hpp>
@@ -11,13 +13,22 @@ namespace airmass {
 
 template <class T>
 PlanetRay<T> PlanetRay<T>::from_vectors(T planet_radius_m, Vec3<T> origin_m, Vec3<T> direction) {
-    const T r0 = glm::length(origin_m);
-    const Vec3<T> d = direction / glm::length(direction);
-    if (!(r0 > T(0))) return {planet_radius_m, -planet_radius_m, {T(1), T(0)}};  // at the centre: any zenith
+    // Both vectors divided by their largest component first: lengths, dot and cross products of
+    // components from 1e-300 to 1e300 (float: 1e-37 to 1e37) then neither over- nor underflow.
+    const auto largest = [](const Vec3<T>& v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); };
+    const T dm = largest(direction);
+    if (!(dm > T(0)) || !(dm <= std::numeric_limits<T>::max()))
+        throw std::invalid_argument("PlanetRay::from_vectors: the direction must be a finite, non-zero vector");
+    const Vec3<T> d = direction / dm / glm::length(direction / dm);
+    const T om = largest(origin_m);
+    if (!(om > T(0))) return {planet_radius_m, -planet_radius_m, {T(1), T(0)}};  // at the centre: any zenith
+    const Vec3<T> o = origin_m / om;  // |o| in [1, √3]
+    const T lo = glm::length(o);
+    const T r0 = om * lo;
     // sin from the cross product keeps full relative accuracy near the horizon, where
     // sqrt(1 − cos²) would not; cos from the dot product likewise near the zenith.
-    const T c = std::clamp(glm::dot(origin_m, d) / r0, T(-1), T(1));
-    const T s = std::min(glm::length(glm::cross(origin_m, d)) / r0, T(1));
+    const T c = std::clamp(glm::dot(o, d) / lo, T(-1), T(1));
+    const T s = std::min(glm::length(glm::cross(o, d)) / lo, T(1));
     return {planet_radius_m, r0 - planet_radius_m, {c, s}};
 }
 
@@ -33,7 +44,12 @@ template <class T>
 T PlanetRay<T>::radius_at(T t_m) const {
     const T p = periapsis_radius_m();
     const T s = periapsis_offset_m() + t_m;
-    return std::sqrt(p * p + s * s);
+    const T r2 = p * p + s * s;
+    // hypot only where the squares leave T's normal range (beyond 1.3e154 m or below 1e-154 m;
+    // float: 1.8e19, 1e-19): it costs several times the square root.
+    if (r2 <= std::numeric_limits<T>::max() && !(r2 < std::numeric_limits<T>::min())) [[likely]]
+        return std::sqrt(r2);
+    return std::hypot(p, s);
 }
 
 template <class T>
@@ -41,7 +57,8 @@ T PlanetRay<T>::altitude_at(T t_m) const {
     // r(t)² − r0² = t (2 s0 + t), so h(t) − h0 = t (2 s0 + t) / (r(t) + r0): the
     // altitude change is computed directly, never as a difference of two radii.
     const T r0 = radius_m();
-    return altitude_m + t_m * (T(2) * periapsis_offset_m() + t_m) / (radius_at(t_m) + r0);
+    // The quotient first: |2 s0 + t| ≤ r(t) + r0, so it is ≤ 1 and t (2 s0 + t) cannot overflow.
+    return altitude_m + t_m * ((T(2) * periapsis_offset_m() + t_m) / (radius_at(t_m) + r0));
 }
 
 template <class T>
