@@ -49,7 +49,9 @@ T PlanetRay<T>::radius_at(T t_m) const {
     // float: 1.8e19, 1e-19): it costs several times the square root.
     if (r2 <= std::numeric_limits<T>::max() && !(r2 < std::numeric_limits<T>::min())) [[likely]]
         return std::sqrt(r2);
-    return std::hypot(p, s);
+    // in double also for float: hypotf's only x86-64 version is GLIBC_2.35, above official
+    // Blender's 2.28 baseline (hypot's old version is kept by plugin/capi/glibc_compat.cpp)
+    return static_cast<T>(std::hypot(double(p), double(s)));
 }
 
 template <class T>
