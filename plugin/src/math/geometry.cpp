@@ -19,7 +19,8 @@ PlanetRay<T> PlanetRay<T>::from_vectors(T planet_radius_m, Vec3<T> origin_m, Vec
     const T dm = largest(direction);
     if (!(dm > T(0)) || !(dm <= std::numeric_limits<T>::max()))
         throw std::invalid_argument("PlanetRay::from_vectors: the direction must be a finite, non-zero vector");
-    const Vec3<T> d = direction / dm / glm::length(direction / dm);
+    const Vec3<T> dn = direction / dm;
+    const Vec3<T> d = dn / glm::length(dn);
     const T om = largest(origin_m);
     if (!(om > T(0))) return {planet_radius_m, -planet_radius_m, {T(1), T(0)}};  // at the centre: any zenith
     const Vec3<T> o = origin_m / om;  // |o| in [1, √3]
