@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
 #include <numeric>
 #include <vector>
 
@@ -73,6 +76,26 @@ TEST(ColorWeights, MidpointCellsLikeBlender) {
     // One sample: a 1-nm line.
     EXPECT_EQ(airmass::wavelength_weights_nm(std::vector<double>{550}).front(), 1.0);
     EXPECT_TRUE(airmass::wavelength_weights_nm(std::vector<double>{}).empty());
+}
+
+// Weights need strictly increasing, finite, positive wavelengths: otherwise a cell has a
+// negative or zero width (a negative weight in every spectrum_to_xyz).
+TEST(ColorWeights, RefuseUnorderedWavelengths) {
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    for (const std::vector<double>& bad : {std::vector<double>{550, 440}, std::vector<double>{440, 550, 500},
+                                           std::vector<double>{440, 440, 550}, std::vector<double>{440, nan, 680},
+                                           std::vector<double>{440, 550, inf}, std::vector<double>{-10, 550},
+                                           std::vector<double>{nan}, std::vector<double>{0}}) {
+        try {
+            (void)airmass::wavelength_weights_nm(bad);
+            ADD_FAILURE() << "accepted " << bad.size() << " wavelengths starting " << bad[0];
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find("wavelengths_nm"), std::string::npos) << e.what();
+        }
+    }
+    const std::vector<double> xs{440, nan};
+    const std::vector<double> ys{1.0, 1.0};
+    EXPECT_THROW((void)airmass::spectrum_to_xyz(xs, ys), std::invalid_argument);
 }
 
 TEST(ColorXyz, BlenderRuleOnItsTwentyOneSamples) {

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <glm/geometric.hpp>
 #include <stdexcept>
 #include <limits>
@@ -255,6 +256,37 @@ TEST(Geometry, HugeAndTinyLengths) {
     EXPECT_THROW(PlanetRay<double>::from_vectors(R, o, Vec3<double>(0.0)), std::invalid_argument);
     EXPECT_THROW(PlanetRay<double>::from_vectors(R, o, Vec3<double>(1.0, std::numeric_limits<double>::infinity(), 0.0)),
                  std::invalid_argument);
+}
+
+// ZenithAngle::from_cos: a cosine within a few ulps of ±1 (a dot product of unit vectors)
+// is the exact end; beyond that, or NaN, it is refused by name, not turned into a sine of 0.
+template <class T>
+void check_from_cos() {
+    constexpr T eps = std::numeric_limits<T>::epsilon();
+    for (T c : {T(1) + eps, T(1) + 4 * eps, T(1)}) {
+        const auto z = ZenithAngle<T>::from_cos(c);
+        EXPECT_EQ(z.cos_chi, T(1));
+        EXPECT_EQ(z.sin_chi, T(0));
+        const auto n = ZenithAngle<T>::from_cos(-c);
+        EXPECT_EQ(n.cos_chi, T(-1));
+        EXPECT_EQ(n.sin_chi, T(0));
+    }
+    const auto h = ZenithAngle<T>::from_cos(T(0));
+    EXPECT_EQ(h.sin_chi, T(1));
+    for (T c : {T(1.001), T(2), T(-1.5), std::numeric_limits<T>::infinity(), -std::numeric_limits<T>::infinity(),
+                std::numeric_limits<T>::quiet_NaN()}) {
+        try {
+            (void)ZenithAngle<T>::from_cos(c);
+            ADD_FAILURE() << "accepted cos_chi = " << c;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find("cos_chi"), std::string::npos) << e.what();
+        }
+    }
+}
+
+TEST(Geometry, ZenithFromCosRefusesOutOfRange) {
+    check_from_cos<double>();
+    check_from_cos<float>();
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 // (scripts/gen_optical_depth_reference.py, 30 digits, independent of this code).
 #include <gtest/gtest.h>
 
+#include <boost/math/quadrature/gauss.hpp>
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -300,6 +302,91 @@ TEST(OpticalDepth, ExtremesAreFinite) {
             EXPECT_FALSE(std::isnan(tau[0])) << h0 << " " << zen;
             EXPECT_GE(tau[0], 0.0);
         }
+    }
+}
+
+// ∫ e^(−h(t)/H) dt from altitude h0 along zenith chi to where the line leaves the top, in
+// long double: h(t) − h0 = t (2 s0 + t)/(r(t) + r0) (no difference of radii), 64-point
+// Gauss–Legendre on each side of the periapsis (the integrand is smooth there; the adaptive
+// reference subdivides the rounding of the top's step without end on segments this short).
+double exponential_mass_to_the_top(double H, double h0, ZenithAngle<double> chi) {
+    using LD = long double;
+    const LD r0 = LD(kR) + h0, s0 = r0 * LD(chi.cos_chi), p = r0 * LD(chi.sin_chi);
+    const LD rt = LD(kR) + kTop;
+    // the top's far crossing, −s0 + √(c + s0²) with c = rt² − r0², as c/(s0 + √…) where that cancels
+    const LD c = (rt - r0) * (rt + r0), root = std::sqrt(c + s0 * s0);
+    const LD t_end = s0 > 0 ? c / (s0 + root) : root - s0;
+    const auto rho = [&](LD t) {
+        const LD r = std::sqrt(p * p + (s0 + t) * (s0 + t));
+        return double(std::exp(-(LD(h0) + t * (2 * s0 + t) / (r + r0)) / H));
+    };
+    const auto gl = [&](LD a, LD b) {
+        return boost::math::quadrature::gauss<double, 64>::integrate([&](double u) { return rho(a + (b - a) * LD(u)); },
+                                                                   0.0, 1.0) *
+               double(b - a);
+    };
+    const LD tp = -s0;
+    return tp > 0 && tp < t_end ? gl(0, tp) + gl(tp, t_end) : gl(0, t_end);
+}
+
+// Sun masses from just below the top of the atmosphere: the closed form subtracts two
+// column-sized Chapman terms there (the point's and the exit's), which cancel. Against the
+// brute-force quadrature of the scene's profiles, for upward, horizontal and slightly
+// downward suns, from 1 nm to 1 km below the top, at Earth's scale heights and at H = 1e7 m.
+TEST(OpticalDepth, SunMassesJustBelowTheTop) {
+    for (double H : {8000.0, 1e7}) {
+        Scene scene = earth_like();
+        scene.constituents[0].profile = exponential_profile(H);
+        scene.constituents.resize(1);
+        const Atmosphere atm = compile_atmosphere(scene, std::vector<double>{550.0});
+        ASSERT_TRUE(atm.constituents[0].profile.truncate_at_top) << H;
+        for (double below : {1e-9, 1e-6, 1e-3, 1.0, 1e3})
+            for (double zen : {0.0, 45.0, 89.0, 90.0, 90.5}) {
+                const double h = kTop - below;
+                const ZenithAngle<double> chi = ZenithAngle<double>::from_degrees(zen);
+                double m[1] = {-1.0}, mb[1] = {-1.0};
+                unsigned char lit = 0;
+                ASSERT_TRUE(sun_masses(atm, h, chi, m));
+                sun_masses_batch(atm, std::span<const double>(&h, 1), std::span<const ZenithAngle<double>>(&chi, 1),
+                                 mb, std::span<unsigned char>(&lit, 1));
+                const double ref = exponential_mass_to_the_top(H, h, chi);
+                ASSERT_GT(ref, 0.0) << H << " " << below << " " << zen;
+                EXPECT_NEAR(m[0], ref, 1e-6 * ref) << "H " << H << ", " << below << " m below the top, " << zen << " deg";
+                EXPECT_EQ(mb[0], m[0]);
+            }
+    }
+}
+
+// A point inside the planet sees no sun, whatever the sun's direction.
+TEST(OpticalDepth, SunMassesBelowTheGroundAreDark) {
+    const Atmosphere atm = compile_atmosphere(earth_like(), std::vector<double>{550.0});
+    for (double h : {-1e-3, -1.0, -1e3, -kR + 1.0, -kR})
+        for (double zen : {0.0, 45.0, 90.0, 135.0, 180.0}) {
+            double m[3] = {-1.0, -1.0, -1.0}, T[1] = {-1.0};
+            EXPECT_FALSE(sun_masses(atm, h, ZenithAngle<double>::from_degrees(zen), m)) << h << " " << zen;
+            EXPECT_EQ(m[0], -1.0);  // left as it was
+            EXPECT_FALSE(sun_transmittance(atm, h, ZenithAngle<double>::from_degrees(zen), T));
+            EXPECT_EQ(T[0], 0.0);
+        }
+    // just above the ground, the sun overhead: lit, the whole column
+    double m[3];
+    EXPECT_TRUE(sun_masses(atm, 0.0, ZenithAngle<double>::from_degrees(0.0), m));
+    EXPECT_NEAR(m[0], 8000.0, 8000.0 * 0.01);
+}
+
+// Segments that start or end at the planet's centre (or pass through it) go through the
+// ground: opaque, not NaN.
+TEST(OpticalDepth, FromThePlanetsCentre) {
+    const Atmosphere atm = compile_atmosphere(earth_like(), std::vector<double>{550.0});
+    const Vec3<double> centre(0.0, 0.0, 0.0);
+    for (const Vec3<double>& p : {Vec3<double>(0.0, 0.0, kR + 1e3), Vec3<double>(1.0, 2.0, 3.0),
+                                  Vec3<double>(3e6, -2e6, 7e6), Vec3<double>(0.0, 0.0, -1e9)}) {
+        double T[1] = {-1.0};
+        transmittance_between(atm, centre, p, T);
+        EXPECT_EQ(T[0], 0.0) << p.x << " " << p.y << " " << p.z;
+        T[0] = -1.0;
+        transmittance_between(atm, p, centre, T);
+        EXPECT_EQ(T[0], 0.0) << p.x << " " << p.y << " " << p.z;
     }
 }
 

@@ -396,6 +396,23 @@ TEST(AerialPerspective, MatchesSingleScatteringAndComposes) {
     for (int w = 0; w < 3; ++w) EXPECT_EQ(T[w], 0.0);
 }
 
+// From the planet's centre (or any point inside the planet) a segment is in the ground:
+// T = 0 and no in-scatter, finite, whether it ends at a point or goes on to infinity.
+TEST(AerialPerspective, FromInsideThePlanetIsOpaque) {
+    const Atmosphere atm = compile_atmosphere(earth_like(), kWavelengths);
+    const Vec3<double> sun = direction_from_zenith_azimuth_deg<double>(30.0, 0.0);
+    const Vec3<double> centre(0.0, 0.0, 0.0), up(0.0, 0.0, kR + 10e3), side(1e6, 0.0, 0.5 * kR);
+    for (const auto& [from, to] : {std::pair{centre, up}, std::pair{centre, side}, std::pair{side, up}})
+        for (bool to_infinity : {false, true}) {
+            double T[3] = {-1, -1, -1}, S[3] = {-1, -1, -1};
+            aerial_perspective(atm, from, to, sun, to_infinity, T, S);
+            for (int w = 0; w < 3; ++w) {
+                EXPECT_EQ(T[w], 0.0) << to_infinity;
+                EXPECT_EQ(S[w], 0.0) << to_infinity;
+            }
+        }
+}
+
 // ---- the command line ----------------------------------------------------------------------
 
 using test::run_command;

@@ -46,7 +46,9 @@ struct ZenithAngle {
     T sin_chi;  // ≥ 0
 
     static ZenithAngle from_degrees(double chi_deg);
-    static ZenithAngle from_cos(T cos_chi);  // sin from (1 − c)(1 + c): exact for exact c
+    // sin from (1 − c)(1 + c): exact for exact c. |c| up to 16 ulps past 1 (rounding) is ±1;
+    // beyond that, or NaN, throws std::invalid_argument naming cos_chi.
+    static ZenithAngle from_cos(T cos_chi);
 };
 
 enum class ChapmanMethod {

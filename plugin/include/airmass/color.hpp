@@ -47,6 +47,8 @@ double cie1931_y_integral_nm();
 // For uniform sampling every weight equals the step, which is exactly Blender's Nishita rule
 // (xyz = step_lambda · Σ cmf(λ_i)·L(λ_i), step 20 nm). A single sample gets Δλ = 1 nm (the XYZ
 // of a 1-nm-wide line). Σ Δλ_i = λ_{N−1} − λ_0 + (Δλ_0 + Δλ_{N−1})/2.
+// Throws std::invalid_argument naming the first wavelength that is not finite, positive and
+// greater than the one before.
 std::vector<double> wavelength_weights_nm(std::span<const double> wavelengths_nm);
 
 // XYZ = Σ_i values_i · cmf(λ_i) · Δλ_i (weights above). Radiance in W m⁻² sr⁻¹ nm⁻¹ gives

@@ -81,9 +81,10 @@ void transmittance_between(const Atmosphere& atmosphere, Vec3<double> from_m, Ve
 // tangent geometries are decided the same way every time.
 inline constexpr double kShadowTolerance_m = 1e-6;
 
-// Whether `sun_ray` (from a point toward the sun) passes through the planet.
+// Whether `sun_ray` (from a point toward the sun) passes through the planet, or starts inside it.
 inline bool in_planet_shadow(const PlanetRay<double>& sun_ray) {
-    return sun_ray.zenith.cos_chi < 0.0 && sun_ray.periapsis_altitude_m() < -kShadowTolerance_m;
+    return sun_ray.altitude_m < -kShadowTolerance_m ||
+           (sun_ray.zenith.cos_chi < 0.0 && sun_ray.periapsis_altitude_m() < -kShadowTolerance_m);
 }
 
 // The part of a view line in Earth's shadow, [t0, t1] in metres along `view` (empty when

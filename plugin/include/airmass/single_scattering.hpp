@@ -70,6 +70,7 @@ void view_transmittance_batch(const Atmosphere& atmosphere, double altitude_m,
 // `from_m` to point `to_m` (planet-centred metres), or, with to_infinity, from `from_m`
 // along the ray through `to_m` out of the atmosphere (or to the ground). An object of
 // radiance L0 at the far end is seen as L0·T + S. S includes neither ground nor disc.
+// From a point inside the planet (beyond kShadowTolerance_m) T = 0 and S = 0: it is all ground.
 void aerial_perspective(const Atmosphere& atmosphere, Vec3<double> from_m, Vec3<double> to_m,
                         Vec3<double> sun_direction, bool to_infinity, std::span<double> transmittance_out,
                         std::span<double> inscatter_out);

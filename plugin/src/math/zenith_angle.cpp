@@ -3,6 +3,9 @@
 // The reduction to the nearest of 0°, 90°, 180° is exact in binary floating point
 // (Sterbenz), so what remains is a small angle whose sine and cosine are accurate.
 #include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
 #include <numbers>
 
 #include "airmass/chapman.hpp"
@@ -31,6 +34,14 @@ ZenithAngle<T> ZenithAngle<T>::from_degrees(double chi_deg) {
 
 template <class T>
 ZenithAngle<T> ZenithAngle<T>::from_cos(T cos_chi) {
+    // A cosine formed from unit vectors may pass ±1 by rounding: within 16 ulps it is the end.
+    constexpr T kRounding = T(16) * std::numeric_limits<T>::epsilon();
+    if (!(std::abs(cos_chi) < T(1))) {
+        if (!(std::abs(cos_chi) <= T(1) + kRounding))
+            throw std::invalid_argument("ZenithAngle::from_cos: cos_chi = " + std::to_string(cos_chi) +
+                                        " is outside [-1, 1]");
+        return {std::copysign(T(1), cos_chi), T(0)};
+    }
     const T s2 = (T(1) - cos_chi) * (T(1) + cos_chi);
     return {cos_chi, std::sqrt(s2 > T(0) ? s2 : T(0))};
 }

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace airmass {
 
@@ -134,6 +136,13 @@ double cie1931_y_integral_nm() {
 
 std::vector<double> wavelength_weights_nm(std::span<const double> wavelengths_nm) {
     const std::size_t n = wavelengths_nm.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const double l = wavelengths_nm[i];
+        if (!(l > 0.0 && l < std::numeric_limits<double>::infinity()) || (i > 0 && !(l > wavelengths_nm[i - 1])))
+            throw std::invalid_argument("wavelength_weights_nm: wavelengths_nm[" + std::to_string(i) + "] = " +
+                                        std::to_string(l) +
+                                        ": the wavelengths must be finite, positive and strictly increasing");
+    }
     std::vector<double> w(n, 1.0);
     if (n < 2) return w;  // one sample: a 1-nm line (see color.hpp)
     for (std::size_t i = 0; i < n; ++i) {

@@ -288,13 +288,23 @@ void sun_masses_block(const Atmosphere& atm, const double* h, const ZenithAngle<
         for (std::size_t k = 0; k < n; ++k) x[k] = (h[k] - p.reference_altitude_m) / H;
         chapman_rescaled_batch<double>(method, X, {x, n}, {cos_chi, n}, {sin_chi, n}, {out, n});
         for (std::size_t k = 0; k < n; ++k) m[k] = H * out[k];
-        if (p.truncate_at_top) {
-            std::fill(x, x + n, (top - p.reference_altitude_m) / H);
-            chapman_rescaled_batch<double>(method, X, {x, n}, {exit_cos, n}, {exit_sin, n}, {out, n});
-            for (std::size_t k = 0; k < n; ++k) m[k] -= H * out[k];
+        if (!p.truncate_at_top) {
+            for (std::size_t k = 0; k < n; ++k)
+                if (lit[k] && !above[k]) mass[k * nc + i] = m[k];
+            continue;
         }
-        for (std::size_t k = 0; k < n; ++k)
-            if (lit[k] && !above[k]) mass[k * nc + i] = std::max(m[k], 0.0);
+        std::fill(x, x + n, (top - p.reference_altitude_m) / H);
+        chapman_rescaled_batch<double>(method, X, {x, n}, {exit_cos, n}, {exit_sin, n}, {out, n});
+        for (std::size_t k = 0; k < n; ++k) {
+            if (!lit[k] || above[k]) continue;
+            const double to_top = m[k] - H * out[k];
+            // Close below the top the two terms are nearly equal and their difference is rounding
+            // (and the Chapman method's error) magnified: there the segment to the top, short
+            // against the scale height, by quadrature (exponential_segment_mass's same rule).
+            mass[k * nc + i] = to_top >= 0.25 * m[k] ? to_top
+                                                      : profile_segment_mass(p, method, PlanetRay<double>{R, h[k], chi[k]},
+                                                                             top, 0.0, kInf<double>);
+        }
     }
     // From above the top (a camera or lamp in space): the closed forms clip at the top.
     for (std::size_t k = 0; k < n; ++k)
