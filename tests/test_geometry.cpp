@@ -263,7 +263,7 @@ TEST(Geometry, HugeAndTinyLengths) {
 template <class T>
 void check_from_cos() {
     constexpr T eps = std::numeric_limits<T>::epsilon();
-    for (T c : {T(1) + eps, T(1) + 4 * eps, T(1)}) {
+    for (T c : {T(1) + eps, T(1) + 4 * eps, T(1) + 16 * eps, T(1)}) {
         const auto z = ZenithAngle<T>::from_cos(c);
         EXPECT_EQ(z.cos_chi, T(1));
         EXPECT_EQ(z.sin_chi, T(0));
@@ -273,13 +273,20 @@ void check_from_cos() {
     }
     const auto h = ZenithAngle<T>::from_cos(T(0));
     EXPECT_EQ(h.sin_chi, T(1));
-    for (T c : {T(1.001), T(2), T(-1.5), std::numeric_limits<T>::infinity(), -std::numeric_limits<T>::infinity(),
-                std::numeric_limits<T>::quiet_NaN()}) {
+    for (T c : {T(1) + 17 * eps, -(T(1) + 17 * eps), T(1.001), T(2), T(-1.5), std::numeric_limits<T>::infinity(),
+                -std::numeric_limits<T>::infinity(), std::numeric_limits<T>::quiet_NaN()}) {
         try {
             (void)ZenithAngle<T>::from_cos(c);
             ADD_FAILURE() << "accepted cos_chi = " << c;
         } catch (const std::invalid_argument& e) {
             EXPECT_NE(std::string(e.what()).find("cos_chi"), std::string::npos) << e.what();
+            // the value in full: 1 + 17 ulps must not read as 1.000000
+            if (std::abs(c) > T(1) && std::abs(c) < T(1.001)) {
+                const std::string what = e.what();
+                EXPECT_EQ(what.find("= 1 "), std::string::npos) << what;
+                EXPECT_EQ(what.find("= 1.000000 "), std::string::npos) << what;
+                EXPECT_EQ(what.find("= -1 "), std::string::npos) << what;
+            }
         }
     }
 }

@@ -290,7 +290,7 @@ void sun_masses_block(const Atmosphere& atm, const double* h, const ZenithAngle<
         for (std::size_t k = 0; k < n; ++k) m[k] = H * out[k];
         if (!p.truncate_at_top) {
             for (std::size_t k = 0; k < n; ++k)
-                if (lit[k] && !above[k]) mass[k * nc + i] = m[k];
+                if (lit[k] && !above[k]) mass[k * nc + i] = std::max(m[k], 0.0);
             continue;
         }
         std::fill(x, x + n, (top - p.reference_altitude_m) / H);
