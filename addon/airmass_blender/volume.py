@@ -84,6 +84,12 @@ SUN_MS_MU, SUN_MS_R = 64, 32
 SUN_TABLE_ROLES = ("sun columns", "sun multiple scattering")
 
 
+def sun_columns_name(index):
+    """The name of the columns' image `index` (constituents 3·index … 3·index + 2): "Airmass Sun
+    Columns", then "Airmass Sun Columns 2", 3, … — one name each, not Blender's ".001" suffixes."""
+    return SUN_COLUMNS_NAME if index == 0 else "%s %d" % (SUN_COLUMNS_NAME, index + 1)
+
+
 def sun_choice(settings):
     """The Analytic Sun's settings, read on the main thread when the operator starts (the job's
     work() must not touch bpy): None for Volume Scatter, else {"multiple", "chapman"}."""
@@ -104,7 +110,8 @@ def sun_inputs(choice, spec, description, unit_name):
 
 def _data_image(name, role, rgb, created, properties=None):
     """A packed 32-bit float image of rgb [rows, columns, 3] (bottom row first), Non-Color data,
-    made through Blender's image API (compat.packed_float_image), registered in `created`."""
+    made through Blender's image API (compat.packed_float_image), registered in `created` to take
+    the name `name` once the previous run's images are gone (_swap_in)."""
     import numpy as np
     n_r, n_mu, _ = rgb.shape
     px = np.ones((n_r, n_mu, 4), dtype=np.float32)
@@ -114,7 +121,7 @@ def _data_image(name, role, rgb, created, properties=None):
     props = {ROLE: role}
     props.update(properties or {})
     return created.add(compat.packed_float_image(name, n_mu, n_r, px.ravel(), colorspace=compat.DATA_COLORSPACE,
-                                                 properties=props, check_value=True))
+                                                 properties=props, check_value=True), name=name)
 
 
 def sun_lighting(description, light, table, created, ms=None):
@@ -130,7 +137,7 @@ def sun_lighting(description, light, table, created, ms=None):
         for ch, name in enumerate(group):
             rgb[..., ch] = table[:, :, first + ch]
             channel[name] = (len(images), ch)
-        images.append(_data_image(SUN_COLUMNS_NAME, SUN_TABLE_ROLES[0], rgb, created,
+        images.append(_data_image(sun_columns_name(len(images)), SUN_TABLE_ROLES[0], rgb, created,
                                   {"airmass_constituents": ",".join(group)}))
     ms_image = _data_image(SUN_MS_NAME, SUN_TABLE_ROLES[1], ms[0], created) if ms is not None else None
     return material.SunLighting(
@@ -323,15 +330,21 @@ class Created:
 
     def __init__(self):
         self.items = []
+        # (block, name): while the previous run's blocks exist a new one made under the same name
+        # is called "name.001"; _swap_in gives it `name` once they are gone.
+        self.names = []
 
-    def add(self, block):
+    def add(self, block, name=None):
         self.items.append(block)
+        if name is not None:
+            self.names.append((block, name))
         return block
 
     def remove_all(self):
         for block in reversed(self.items):
             _remove_block(block)
         self.items.clear()
+        self.names.clear()
 
 
 def _remove_block(block):
@@ -456,9 +469,13 @@ def _swap_in(context, settings, new_objects, created):
     coll = _collection(scene, created)
     for o in new_objects:
         coll.objects.link(o)
+    renames = list(created.names)
     created.items.clear()  # from here on they belong to the scene
+    created.names.clear()
     _remove_old(old)
     # Canonical names once the previous ones are gone.
+    for block, name in renames:
+        block.name = name
     for o in new_objects:
         base = VOLUME_NAME if o.get(ROLE) == "atmosphere" else GROUND_NAME
         if len([x for x in new_objects if x.get(ROLE) == o.get(ROLE)]) == 1:

@@ -906,6 +906,62 @@ def test_analytic_sun():
     check(mean > 0.0, "Analytic Sun VDB render is black")
 
 
+FIVE_CONSTITUENTS_TOML = '''preset = "earth"
+[[constituent]]
+name = "haze"
+profile = { type = "exponential", scale_height_km = 2.0 }
+extinction = { law = "angstrom", beta = 1e-3, alpha = 1.0 }
+single_scattering_albedo = 0.95
+phase = { type = "isotropic" }
+[[constituent]]
+name = "dust"
+profile = { type = "exponential", scale_height_km = 3.0 }
+extinction = { law = "angstrom", beta = 5e-4, alpha = 0.5 }
+single_scattering_albedo = 0.8
+phase = { type = "isotropic" }
+'''
+
+
+@test
+def test_analytic_sun_table_names():
+    """More than three constituents: the Analytic Sun's tables take one image per three
+    constituents, each under its own name ("Airmass Sun Columns", "Airmass Sun Columns 2", …), and
+    a rebuild replaces them under the same names (no ".001" names, nothing piles up)."""
+    scene, out = fresh_scene("analytic_sun_names")
+    s = scene.airmass
+    toml = os.path.join(out, "five.toml")
+    with open(toml, "w", encoding="utf-8") as f:
+        f.write(FIVE_CONSTITUENTS_TOML)
+    s.source, s.scene_file = "FILE", toml
+    check([c.name for c in s.constituents] == ["rayleigh", "mie", "ozone", "haze", "dust"],
+          "constituents %s" % [c.name for c in s.constituents])
+    s.volume_lighting = "SUN_EMISSION"
+    s.volume_multiple = True
+    expected = {"Airmass Sun Columns": "rayleigh,mie,ozone", "Airmass Sun Columns 2": "haze,dust",
+                "Airmass Sun Multiple Scattering": None}
+
+    def tables():
+        return {i.name: i.get("airmass_constituents") for i in bpy.data.images
+                if i.get("airmass_role") in ("sun columns", "sun multiple scattering")}
+
+    snapshot = None
+    for run in range(3):
+        check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "create_volume run %d" % run)
+        check(tables() == expected, "run %d: table images %s" % (run, tables()))
+        used = {n.image.name for n in _atmosphere_objects(scene)[0].active_material.node_tree.nodes
+                if n.bl_idname == "ShaderNodeTexImage" and n.image is not None}
+        check(used == set(expected), "run %d: the material reads %s" % (run, sorted(used)))
+        if snapshot is not None:
+            check(data_snapshot() == snapshot, "run %d changed datablock counts: %s vs %s"
+                  % (run, data_snapshot(), snapshot))
+        snapshot = data_snapshot()
+    # Single scattering: the multiple-scattering image goes, the columns keep their names.
+    s.volume_multiple = False
+    check(bpy.ops.airmass.create_volume(mode="ANALYTIC") == {"FINISHED"}, "create_volume single scattering")
+    del expected["Airmass Sun Multiple Scattering"]
+    check(tables() == expected, "single scattering: table images %s" % tables())
+
+
 @test
 def test_analytic_sun_render_vs_native():
     """What Cycles renders from the Analytic Sun material equals the library's own render of the
