@@ -73,6 +73,26 @@ def prepare_float_image(image):
 DATA_COLORSPACE = "Non-Color"
 
 
+def new_float_image(name, width, height, colorspace=None):
+    """A new, empty 32-bit float RGBA image (not packed), tagged with `colorspace`: None is
+    float_image_colorspace() (pixels in the working space), else that name. On a failure the image
+    is removed again and the error names it and the step. packed_float_image and the Live Sky
+    Preview (live.py, which fills and packs its image itself) make their images with it."""
+    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    step = "colour space %r" % (colorspace or float_image_colorspace())
+    try:
+        if colorspace is None:
+            set_float_image_colorspace(image)
+        else:
+            image.colorspace_settings.name = colorspace
+        step = "32-bit float"
+        prepare_float_image(image)
+    except Exception as e:
+        bpy.data.images.remove(image)
+        raise RuntimeError("Blender could not make %r a 32-bit float image (%s): %s" % (name, step, e)) from e
+    return image
+
+
 def packed_float_image(name, width, height, flat, colorspace=None, properties=None, check_value=False):
     """A new 32-bit float RGBA image of `flat` (width·height·4 floats, bottom row first), packed
     into the .blend — Blender packs a float image as OpenEXR, so bytes(image.packed_file.data) is
@@ -87,16 +107,9 @@ def packed_float_image(name, width, height, flat, colorspace=None, properties=No
     count = width * height * 4
     if len(flat) != count:
         raise ValueError("image %r: %d values for %dx%d RGBA (%d)" % (name, len(flat), width, height, count))
-    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
-    step = "colour space %r" % (colorspace or float_image_colorspace())
+    image = new_float_image(name, width, height, colorspace)
+    step = "pixels"
     try:
-        if colorspace is None:
-            set_float_image_colorspace(image)
-        else:
-            image.colorspace_settings.name = colorspace
-        step = "32-bit float"
-        prepare_float_image(image)
-        step = "pixels"
         image.pixels.foreach_set(flat)
         step = "pack"
         image.pack()

@@ -111,15 +111,15 @@ class _Job:
 
 def _image(scene, width, height):
     """The World's sky image of this size: the Generate Sky image when it has the size, else a new
-    float image wired into the World (world.wire_world)."""
+    float image (compat.new_float_image; filled and packed by _apply, no read-back) wired into the
+    World (world.wire_world). When the new image cannot be made the previous one stays as it was."""
     from .world import IMAGE_NAME, wire_world
     image = bpy.data.images.get(IMAGE_NAME)
     if image is None or tuple(image.size) != (width, height):
+        new = compat.new_float_image(IMAGE_NAME + " (new)", width, height)
         if image is not None:
             image.name = IMAGE_NAME + " (old)"
-        new = bpy.data.images.new(IMAGE_NAME, width, height, alpha=True, float_buffer=True)
-        compat.set_float_image_colorspace(new)
-        compat.prepare_float_image(new)
+        new.name = IMAGE_NAME
         wire_world(scene, new, scene.airmass.sky_strength)
         if image is not None and image.users == 0:
             bpy.data.images.remove(image)

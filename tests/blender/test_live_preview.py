@@ -164,7 +164,59 @@ def test_live_preview():
     check(not live.busy(), "turning the preview off stops it")
 
 
-TESTS = [test_live_preview]
+def test_live_image_fault():
+    """The live image is made by compat.new_float_image (the one float-image builder): when a new
+    size's image cannot be made, nothing half-made is left and the World keeps the previous image
+    under its name (before, the previous one was renamed "Airmass Sky (old)" and an untagged new
+    one stayed)."""
+    from airmass_blender import compat, live, world
+    scene, _out = T.fresh_scene("live_fault")
+    s = scene.airmass
+    s.preset = "blender-nishita"
+    s.sky_width = 64
+    s.view_samples = 4
+    live.reset()
+    s.live_preview = True
+    Clock.now += 0.01
+    live.tick(scene, now=Clock.now)
+    drive(live, scene)
+    drive(live, scene)
+    shown = bpy.data.images.get(world.IMAGE_NAME)
+    check(shown is not None and tuple(shown.size) == (64, 32), "the first preview image: %s" % shown)
+    check(shown.colorspace_settings.name == compat.float_image_colorspace() and shown.is_float,
+          "the live image is a float image in %s: %s, float %s"
+          % (compat.float_image_colorspace(), shown.colorspace_settings.name, shown.is_float))
+    names = sorted(i.name for i in bpy.data.images)
+
+    def broken(image):
+        raise RuntimeError("no colour space (test)")
+    original = compat.set_float_image_colorspace
+    compat.set_float_image_colorspace = broken
+    try:
+        s.sky_width = 128  # a new size: a new image, made when the moved sun's preview is applied
+        s.sun_elevation += math.radians(3.0)
+        renders = len(live._state["renders"])
+        failed = None
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and len(live._state["renders"]) == renders:
+            try:
+                live.tick(scene, now=Clock.now)
+            except RuntimeError as e:
+                failed = e
+                break
+            time.sleep(0.005)
+        check(failed is not None and "no colour space" in str(failed), "the image's fault surfaces: %r" % failed)
+    finally:
+        compat.set_float_image_colorspace = original
+    check(sorted(i.name for i in bpy.data.images) == names,
+          "images after the failed new image: %s, before %s" % (sorted(i.name for i in bpy.data.images), names))
+    env = scene.world.node_tree.nodes.get(world.ENV_NODE)
+    check(env.image == bpy.data.images.get(world.IMAGE_NAME) and tuple(env.image.size) == (64, 32),
+          "the World keeps the previous image: %s" % env.image)
+    s.live_preview = False
+
+
+TESTS = [test_live_preview, test_live_image_fault]
 
 
 def main():
