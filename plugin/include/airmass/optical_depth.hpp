@@ -125,9 +125,9 @@ inline ShadowSpan earth_shadow_span(const PlanetRay<double>& view, double origin
 // Masses of every constituent along the sun ray from a point at `altitude_m` whose sun
 // zenith angle is `sun_zenith`, to the top of the atmosphere (exponential profiles: H·Ch
 // at the point minus, where the top matters, the same at the ray's exit — by quadrature
-// where those two cancel, close below the top; piecewise linear: the closed form). A point
-// below the ground is in the shadow. Returns false — the point is in the planet's shadow — and leaves `mass`
-// as it was when the ray is blocked. mass.size() = atmosphere.constituents.size().
+// where those two cancel, close below the top; piecewise linear: the closed form). Returns
+// false — the point is in the planet's shadow, or below the ground — and leaves `mass` as it
+// was when the ray is blocked. mass.size() = atmosphere.constituents.size().
 bool sun_masses(const Atmosphere& atmosphere, double altitude_m, ZenithAngle<double> sun_zenith,
                 std::span<double> mass);
 

@@ -3,13 +3,13 @@
 // The reduction to the nearest of 0°, 90°, 180° is exact in binary floating point
 // (Sterbenz), so what remains is a small angle whose sine and cosine are accurate.
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <numbers>
 
 #include "airmass/chapman.hpp"
+#include "support/message_format.hpp"
 
 namespace airmass {
 
@@ -39,12 +39,10 @@ ZenithAngle<T> ZenithAngle<T>::from_cos(T cos_chi) {
     constexpr T kRounding = T(16) * std::numeric_limits<T>::epsilon();
     if (!(std::abs(cos_chi) < T(1))) {
         if (!(std::abs(cos_chi) <= T(1) + kRounding))
-        {
-            char value[32];
-            std::snprintf(value, sizeof value, "%.*g", std::numeric_limits<T>::max_digits10, double(cos_chi));
-            throw std::invalid_argument(std::string("ZenithAngle::from_cos: cos_chi = ") + value +
-                                        " is outside [-1, 1] (by more than 16 ulps of rounding)");
-        }
+            throw std::invalid_argument(
+                "ZenithAngle::from_cos: cos_chi = " +
+                detail::message_number(double(cos_chi), std::numeric_limits<T>::max_digits10) +
+                " is outside [-1, 1] (by more than 16 ulps of rounding)");
         return {std::copysign(T(1), cos_chi), T(0)};
     }
     const T s2 = (T(1) - cos_chi) * (T(1) + cos_chi);

@@ -1,5 +1,6 @@
 // Colour matching functions, spectrum → XYZ → linear Rec.709, Schüler's basis (see color.hpp).
 #include "airmass/color.hpp"
+#include "support/message_format.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -140,7 +141,7 @@ std::vector<double> wavelength_weights_nm(std::span<const double> wavelengths_nm
         const double l = wavelengths_nm[i];
         if (!(l > 0.0 && l < std::numeric_limits<double>::infinity()) || (i > 0 && !(l > wavelengths_nm[i - 1])))
             throw std::invalid_argument("wavelength_weights_nm: wavelengths_nm[" + std::to_string(i) + "] = " +
-                                        std::to_string(l) +
+                                        detail::message_number(l) +
                                         ": the wavelengths must be finite, positive and strictly increasing");
     }
     std::vector<double> w(n, 1.0);

@@ -301,9 +301,10 @@ void sun_masses_block(const Atmosphere& atm, const double* h, const ZenithAngle<
             // Close below the top the two terms are nearly equal and their difference is rounding
             // (and the Chapman method's error) magnified: there the segment to the top, short
             // against the scale height, by quadrature (exponential_segment_mass's same rule).
-            mass[k * nc + i] = to_top >= 0.25 * m[k] ? to_top
-                                                      : profile_segment_mass(p, method, PlanetRay<double>{R, h[k], chi[k]},
-                                                                             top, 0.0, kInf<double>);
+            mass[k * nc + i] =
+                to_top >= 0.25 * m[k]
+                    ? to_top
+                    : profile_segment_mass(p, method, PlanetRay<double>{R, h[k], chi[k]}, top, 0.0, kInf<double>);
         }
     }
     // From above the top (a camera or lamp in space): the closed forms clip at the top.

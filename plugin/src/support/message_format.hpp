@@ -1,4 +1,4 @@
-// Small helpers the camera and render code share for their error messages and checks.
+// Small helpers the library shares for its error messages and checks.
 #pragma once
 
 #include <cmath>
@@ -9,11 +9,11 @@
 
 namespace airmass::detail {
 
-// A number as error messages print it: 9 significant digits (a float's worth, enough to
-// recognise the value the user typed).
-inline std::string message_number(double v) {
+// A number as error messages print it: 9 significant digits by default (a float's worth,
+// enough to recognise the value the user typed); 17 where a few ulps matter.
+inline std::string message_number(double v, int digits = 9) {
     char buf[32];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
     return buf;
 }
 
