@@ -1,10 +1,12 @@
 // airmass: the command-line front end of libairmass.
+#include <algorithm>
 #include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include "airmass/version.hpp"
 #include "airmass/compare_plan.hpp"
@@ -31,9 +33,57 @@ Reached reached(const CLI::App& app, int argc, char** argv) {
     return r;
 }
 
+// Edit distance (insertions, deletions, substitutions) of two option names.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
+// The first word after the command's words that looks like an option (`--name`,
+// `--name=v`, `-x`; not a value such as `-5` or `-inf`, not after `--`) but is none of the
+// command's. With its value it otherwise becomes a positional, and CLI11 reports something
+// else ("scene excludes --preset" for `airmass sky --preset earth --out x.exr`). Names the
+// nearest option when one extends the word or is within two edits of it (one for a name of
+// four letters or fewer).
+std::string unknown_option(const Reached& r, char** argv, int argc) {
+    for (int i = r.next; i < argc; ++i) {
+        const std::string word = argv[i];
+        if (word == "--") break;
+        const bool long_form = word.size() > 2 && word[0] == '-' && word[1] == '-';
+        const bool short_form = word.size() == 2 && word[0] == '-';  // `-5`, `-inf`: values
+        if (!(long_form || short_form) || !std::isalpha(static_cast<unsigned char>(word[long_form ? 2 : 1])))
+            continue;
+        const std::string name = word.substr(0, word.find('='));
+        if (r.level->get_option_no_throw(name) != nullptr) continue;
+        std::string nearest;
+        std::size_t best = name.size() > 6 ? 3 : 2;  // two edits from 5 letters on, one below
+        if (name.rfind("--", 0) == 0)
+            for (const CLI::Option* opt : r.level->get_options()) {
+                for (const std::string& long_name : opt->get_lnames()) {
+                    const std::string candidate = "--" + long_name;
+                    const std::size_t d = candidate.rfind(name, 0) == 0 ? 1 : edit_distance(name, candidate);
+                    if (d < best) best = d, nearest = candidate;
+                }
+            }
+        return "unknown option '" + name + "'" + (nearest.empty() ? "" : " (did you mean " + nearest + "?)");
+    }
+    return {};
+}
+
 // CLI11's message, starting lower-case after "airmass: <command>: ", except where it misleads:
 // a word that is not a command, where one is expected, reads "A subcommand is required"; say
-// which word and list the commands of that level.
+// which word and list the commands of that level. An unknown option is named first, whatever
+// CLI11 made of it.
 std::string parse_message(const Reached& r, const CLI::ParseError& e, char** argv, int argc) {
     const auto commands = r.level->get_subcommands([](const CLI::App*) { return true; });
     if (!commands.empty() && r.next < argc && argv[r.next][0] != '-') {
@@ -41,6 +91,7 @@ std::string parse_message(const Reached& r, const CLI::ParseError& e, char** arg
         for (const CLI::App* sub : commands) names += (names.empty() ? "" : ", ") + sub->get_name();
         return std::string("unknown command '") + argv[r.next] + "' (commands: " + names + ")";
     }
+    if (std::string unknown = unknown_option(r, argv, argc); !unknown.empty()) return unknown;
     std::string what = e.what();
     if (what.size() > 1 && std::isupper(static_cast<unsigned char>(what[0])) &&
         std::islower(static_cast<unsigned char>(what[1])))

@@ -91,12 +91,20 @@ def test_version_is_in_help(airmass_bin):
 
 @pytest.mark.parametrize("args, first_line, hint", [
     (["sky", "--width", "-5"], "airmass: sky: --width: '-5': must be an integer in [4, 65536]", "airmass sky --help"),
-    (["sky", "--bogus"], "airmass: sky: the following argument was not expected: --bogus", "airmass sky --help"),
+    (["sky", "--bogus"], "airmass: sky: unknown option '--bogus'", "airmass sky --help"),
+    # A mistyped option with a value: named, with the option meant, not CLI11's "scene excludes
+    # --preset" (the value had become the scene file).
+    (["sky", "--preset", "earth", "--out", "x.exr"], "airmass: sky: unknown option '--out' (did you mean --output?)",
+     "airmass sky --help"),
+    (["sky", "--preset", "earth", "--widht=64"], "airmass: sky: unknown option '--widht' (did you mean --width?)",
+     "airmass sky --help"),
+    (["sky", "--preset", "earth", "--sun-elevation", "-inf"],
+     "airmass: sky: --sun-elevation: '-inf': must be a number in [-90, 90]", "airmass sky --help"),
     (["frob"], "airmass: unknown command 'frob' (commands: chapman, eval, sky, vdb, render, compare, sun, pov, "
                "report)", "airmass --help"),
     (["report", "frob"], "airmass: report: unknown command 'frob' (commands: chapman, sky, vdb, ms)",
      "airmass report --help"),
-    (["report", "sky", "--bogus"], "airmass: report sky: the following argument was not expected: --bogus",
+    (["report", "sky", "--bogus"], "airmass: report sky: unknown option '--bogus'",
      "airmass report sky --help"),
 ])
 def test_bad_command_line_is_one_format(airmass_bin, args, first_line, hint):
