@@ -1,13 +1,12 @@
 // airmass: the command-line front end of libairmass.
-#include <algorithm>
 #include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <string>
-#include <vector>
 
+#include "airmass/spelling.hpp"
 #include "airmass/version.hpp"
 #include "airmass/compare_plan.hpp"
 #include "commands.hpp"
@@ -33,28 +32,12 @@ Reached reached(const CLI::App& app, int argc, char** argv) {
     return r;
 }
 
-// Edit distance (insertions, deletions, substitutions) of two option names.
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t above = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-            diagonal = above;
-        }
-    }
-    return row[b.size()];
-}
-
 // The first word after the command's words that looks like an option (`--name`,
 // `--name=v`, `-x`; not a value such as `-5` or `-inf`, not after `--`) but is none of the
 // command's. With its value it otherwise becomes a positional, and CLI11 reports something
 // else ("scene excludes --preset" for `airmass sky --preset earth --out x.exr`). Names the
-// nearest option when one extends the word or is within two edits of it (one for a name of
-// four letters or fewer).
+// option that begins with the word or, failing that, the nearest of which it looks like a
+// misspelling (airmass/spelling.hpp).
 std::string unknown_option(const Reached& r, char** argv, int argc) {
     for (int i = r.next; i < argc; ++i) {
         const std::string word = argv[i];
@@ -65,16 +48,17 @@ std::string unknown_option(const Reached& r, char** argv, int argc) {
             continue;
         const std::string name = word.substr(0, word.find('='));
         if (r.level->get_option_no_throw(name) != nullptr) continue;
+        const std::string_view typed = std::string_view(name).substr(name[1] == '-' ? 2 : 1);
         std::string nearest;
-        std::size_t best = name.size() > 6 ? 3 : 2;  // two edits from 5 letters on, one below
-        if (name.rfind("--", 0) == 0)
-            for (const CLI::Option* opt : r.level->get_options()) {
+        std::size_t best = std::string::npos;
+        if (long_form)
+            for (const CLI::Option* opt : r.level->get_options())
                 for (const std::string& long_name : opt->get_lnames()) {
-                    const std::string candidate = "--" + long_name;
-                    const std::size_t d = candidate.rfind(name, 0) == 0 ? 1 : edit_distance(name, candidate);
-                    if (d < best) best = d, nearest = candidate;
+                    std::size_t d = std::string::npos;
+                    if (long_name.rfind(typed, 0) == 0) d = 0;  // the start of it
+                    else if (airmass::looks_like_misspelling(typed, long_name)) d = airmass::edit_distance(typed, long_name);
+                    if (d < best) best = d, nearest = "--" + long_name;
                 }
-            }
         return "unknown option '" + name + "'" + (nearest.empty() ? "" : " (did you mean " + nearest + "?)");
     }
     return {};

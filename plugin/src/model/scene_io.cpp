@@ -42,6 +42,7 @@
 #include <sstream>
 
 #include "airmass/color.hpp"
+#include "airmass/spelling.hpp"
 
 namespace airmass {
 
@@ -430,7 +431,7 @@ public:
         std::string hint;
         for (auto&& [k, node] : table_) {
             if (std::find(looked_up_.begin(), looked_up_.end(), k.str()) != looked_up_.end()) continue;
-            if (edit_distance(k.str(), key) <= (key.size() <= 3 ? 1u : 2u)) {
+            if (looks_like_misspelling(k.str(), key)) {
                 hint = "; " + in_quotes(k.str()) + (node.source().begin ? " at " + location(node.source()) : "") +
                        " looks like a misspelling of it";
                 break;
@@ -516,21 +517,6 @@ private:
     static std::string location(const toml::source_region& src) {
         std::string w = where(src);
         return w.size() >= 2 ? w.substr(0, w.size() - 2) : w;  // without the trailing ": "
-    }
-    // Levenshtein distance (short keys only).
-    static std::size_t edit_distance(std::string_view a, std::string_view b) {
-        std::vector<std::size_t> row(b.size() + 1);
-        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-        for (std::size_t i = 1; i <= a.size(); ++i) {
-            std::size_t diagonal = row[0];
-            row[0] = i;
-            for (std::size_t j = 1; j <= b.size(); ++j) {
-                const std::size_t up = row[j];
-                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-                diagonal = up;
-            }
-        }
-        return row[b.size()];
     }
     static std::string join(const std::vector<std::string>& v) {
         std::string out;
