@@ -653,6 +653,10 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             grid.column(phi, c0, wc);
             grid.column_stencil(c0, wc, stencils[std::size_t(x)].cols, stencils[std::size_t(x)].w);
         }
+        // With the mirror (key ≥ 0) one pixel of each mirrored pair is interpolated and copied to
+        // the other, as the per-pixel render does: the image is exactly symmetric, and the
+        // interpolation and phase functions cost half.
+        const std::vector<int> columns = evaluated_columns(key, W);
         {
             parallel_for(0, std::size_t(H), 4, threads, [&](std::size_t rb, std::size_t re, int) {
                 std::vector<double> line(std::size_t(grid.columns()) * kGridChannels);
@@ -667,7 +671,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                         // The row part blended once per image row, then each pixel's column stencil.
                         if (grid.cell(theta, grid.sun_phi, cell)) {
                             grid.blend_row(cell, line);
-                            for (int x = 0; x < W; ++x) {
+                            for (const int x : columns) {
                                 const ColumnStencil& cs = stencils[std::size_t(x)];
                                 grid.interpolate_line(line, cs.cols, cs.w, v);
                                 const double nu = st * column_sun[std::size_t(x)] + ct * ctx.sun.z;
@@ -678,6 +682,8 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                                     px[ch] = static_cast<float>(
                                         std::max(v[ch] * pr + v[3 + ch] * pm + v[6 + ch], 0.0) * (1.0 - T) +
                                         std::max(v[9 + ch], 0.0) * T);
+                                if (key >= 0)
+                                    std::copy(px, px + 3, image.at(static_cast<int>(((key - 1 - x) % W + W) % W), y));
                             }
                         }
                     }
