@@ -20,6 +20,7 @@ DOCUMENTS = ["README.md", "docs/sky.md", "docs/vdb.md", "docs/multiple_scatterin
 BLOCKS = {
     "chapman_trade": "chapman/chapman_trade.md",
     "sky_trade": "sky/sky_trade.md",
+    "sky_ms_view": "sky/sky_ms_view.md",
     "vdb_trade": "vdb/vdb_trade.md",
     "ms_trade": "ms/ms_trade.md",
     "ms_presets": "ms/ms_presets.md",

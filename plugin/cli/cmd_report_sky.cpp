@@ -18,6 +18,8 @@
 //   sky_trade_conditions.csv  per configuration and condition
 //   sky_reference.csv         the reference's self-checks
 //   sky_trade.md              Markdown tables (and the default-settings ≤ 1 % check)
+//   sky_ms_view.csv / .md     the multiple-scattering view's knobs (--ms-grid, --ms-samples)
+//                             against the same tables integrated along every pixel's ray
 // scripts/plot_sky_trade.py draws the Pareto plot from sky_trade.csv.
 #include <algorithm>
 #include <chrono>
@@ -160,12 +162,182 @@ std::string pct(double v) {
 }
 
 
+// ---- the multiple-scattering view's knobs ---------------------------------------------------
+//
+// The sky adds multiple scattering by integrating the tables along the rays of a coarse
+// sun-aligned view (SkySettings::multiple_grid, --ms-grid M) with multiple.view_samples
+// intervals per ray (--ms-samples N), then interpolating (docs/sky.md). Both are knobs of the
+// image, not of the tables (whose own error against Monte Carlo is `airmass report ms`), so
+// they are measured against the same tables integrated along every pixel's own ray with
+// kMsReferenceSamples intervals. The single scattering is evaluated per pixel in every image
+// (grid 0), identically, so the differences are the view's alone; one extra row renders as
+// `airmass sky` does large images (the sky grid too), whose error then includes the grid's
+// interpolation of both parts.
+constexpr int kMsReferenceSamples = 256;
+
+struct MsViewConfig {
+    int ms_grid;     // SkySettings::multiple_grid (0: the tables along every evaluated ray)
+    int ms_samples;  // multiple.view_samples
+    int grid = 0;    // SkySettings::grid of the accuracy images
+};
+
+std::string ms_view_report(const std::string& out_dir, const std::string& preset, const Scene& base, bool quick,
+                           int threads) {
+    // 256 × 128: 16 384 rays with the mirror, more than the largest view measured (M = 64:
+    // 65 × 66 rays), so every view is built, and more than the default sky grid's 3 362 nodes.
+    const int W = quick ? 128 : 256, H = W / 2;
+    struct Cond {
+        double elevation_deg, altitude_m;
+    };
+    std::vector<Cond> conditions = {{60, 0}, {15, 0}, {2, 0}, {-4, 0}, {60, 10e3}, {2, 10e3}, {-4, 10e3}, {30, 400e3}};
+    std::vector<int> grids = {0, 8, 16, kSkyDefaultMultipleGrid, 64}, samples = {8, 16, 32, 64};
+    if (quick) {
+        conditions = {{15, 0}, {-4, 0}};
+        grids = {0, kSkyDefaultMultipleGrid};
+        samples = {16, 32};
+    }
+    const SkySettings defaults;
+    std::vector<MsViewConfig> configs;
+    for (int m : grids)
+        for (int n : samples) configs.push_back({m, n});
+    configs.push_back({kSkyDefaultMultipleGrid, defaults.multiple.view_samples, -1});  // as `airmass sky` renders
+    auto settings_for = [&](const MsViewConfig& c, int w, int h) {
+        SkySettings s;
+        s.width = w;
+        s.height = h;
+        s.view.sun_disc = false;
+        s.grid = c.grid;
+        s.multiple_grid = c.ms_grid;
+        s.multiple.view_samples = c.ms_samples;
+        s.threads = threads;
+        return s;
+    };
+    // One session: the tables once (the preset's own basis), every image a render of it.
+    std::fprintf(stderr, "report sky: multiple-scattering view: tables...\n");
+    const SkySession session(base, settings_for({0, kMsReferenceSamples}, W, H));
+    const auto render = [&](const Cond& c, const MsViewConfig& cfg, int w, int h) {
+        return session.render(sun_direction(c.elevation_deg, 0.0), c.altitude_m, settings_for(cfg, w, h));
+    };
+    std::vector<FloatImage> refs;
+    for (const Cond& c : conditions) refs.push_back(render(c, {0, kMsReferenceSamples}, W, H));
+    // The reference's own convergence: twice its intervals, at twilight and by day.
+    std::ostringstream self;
+    for (const Cond& c : {conditions.front(), conditions[quick ? 1 : 3]}) {
+        const ImageErrors e = compare(render(c, {0, kMsReferenceSamples}, W / 2, H / 2),
+                                      render(c, {0, 2 * kMsReferenceSamples}, W / 2, H / 2));
+        const auto a = e.above.stats(), b = e.below.stats();
+        char line[256];
+        std::snprintf(line, sizeof line, "%s%d vs %d intervals at sun %g°, observer %g km: p95 %s / max %s above, "
+                      "p95 %s / max %s below", self.tellp() > 0 ? "; " : "", kMsReferenceSamples,
+                      2 * kMsReferenceSamples, c.elevation_deg, c.altitude_m / 1e3, pct(a.p95).c_str(),
+                      pct(a.max).c_str(), pct(b.p95).c_str(), pct(b.max).c_str());
+        self << line;
+    }
+
+    std::ostringstream csv;
+    csv << "ms_grid,ms_samples,grid,ms_per_image,relative_time,threads,p95_above,mean_above,max_above,p95_below,"
+           "mean_below,max_below,worst_condition_p95\n";
+    struct Row {
+        MsViewConfig cfg;
+        double seconds;
+        Errors::Stats above, below;
+        double worst;
+    };
+    std::vector<Row> rows;
+    // Time: a 1024 × 512 image at the defaults otherwise (sky grid auto), sun 30°, ground
+    // observer, the tables held (the add-on's per-sun path), best of 3; and without multiple
+    // scattering at all, for scale.
+    const int TW = quick ? 256 : 1024;
+    const auto time_of = [&](const SkySession& ses, const SkySettings& st) {
+        double best = 1e300;
+        for (int k = 0; k < 3; ++k) {
+            const auto t0 = std::chrono::steady_clock::now();
+            ses.render(sun_direction(30.0, 0.0), 0.0, st);
+            best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        }
+        return best;
+    };
+    for (std::size_t i = 0; i < configs.size(); ++i) {
+        const MsViewConfig& cfg = configs[i];
+        std::fprintf(stderr, "\rreport sky: multiple-scattering view %zu/%zu: --ms-grid %-3d --ms-samples %-3d", i + 1,
+                     configs.size(), cfg.ms_grid, cfg.ms_samples);
+        Errors above, below;
+        double worst = 0;
+        for (std::size_t ci = 0; ci < conditions.size(); ++ci) {
+            const ImageErrors e = compare(render(conditions[ci], cfg, W, H), refs[ci]);
+            above.append(e.above);
+            below.append(e.below);
+            worst = std::max({worst, e.above.stats().p95, e.below.stats().p95});
+        }
+        // Timed as `airmass sky` renders (sky grid auto): the last row is the same render as the
+        // default knobs' row, timed once.
+        double seconds = std::nan("");
+        for (const Row& r : rows)
+            if (r.cfg.ms_grid == cfg.ms_grid && r.cfg.ms_samples == cfg.ms_samples) seconds = r.seconds;
+        if (std::isnan(seconds)) {
+            MsViewConfig timed = cfg;
+            timed.grid = -1;
+            seconds = time_of(session, settings_for(timed, TW, TW / 2));
+        }
+        rows.push_back({cfg, seconds, above.stats(), below.stats(), worst});
+    }
+    std::fprintf(stderr, "\n");
+    SkySettings off = settings_for({kSkyDefaultMultipleGrid, defaults.multiple.view_samples, -1}, TW, TW / 2);
+    off.multiple.enabled = false;
+    const double seconds_off = time_of(SkySession(base, off), off);
+    double seconds_default = 0;
+    for (const Row& r : rows)
+        if (r.cfg.grid == -1) seconds_default = r.seconds;
+
+    std::ostringstream md;
+    md << "Measured by `airmass report sky` (preset `" << preset << "`, its tables at their defaults, "
+       << W << "×" << H << " full-sphere images, sun rotation 0°, no sun disc; sun elevation × observer: ";
+    for (std::size_t i = 0; i < conditions.size(); ++i)
+        md << (i ? ", " : "") << conditions[i].elevation_deg << "° × " << conditions[i].altitude_m / 1e3 << " km";
+    md << ") against the same tables integrated along every pixel's own ray with " << kMsReferenceSamples
+       << " intervals (" << self.str()
+       << "). Single scattering per pixel in every image (the same in all, so the error is the view's); the last row "
+          "renders as `airmass sky` does large images, the sky grid interpolating both parts. Error of a pixel as in "
+          "the sky trade (max over R, G, B of |c − c_ref| / max(c_ref, Y_ref)), statistics weighted by solid angle, "
+          "pooled over the conditions (below the horizon an observer on the ground sees the ground at zero distance, "
+          "the same in every image); \"worst\" = the largest p95 of one condition and half-sphere. Time (the same "
+          "for a row's knobs with either sky grid): one "
+       << TW << "×" << TW / 2 << " image (sky grid auto), sun 30°, ground observer, the tables held (a session's new "
+       << "sun, the add-on's path), best of 3, " << threads << " threads, this run; without multiple scattering the "
+          "same image takes "
+       << std::lround(seconds_off * 1e3) << " ms.\n\n"
+       << "| `--ms-grid` | `--ms-samples` | ms per image | × default | p95 above | mean above | max above | p95 below | "
+          "mean below | max below | worst p95 |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const Row& r : rows) {
+        const bool is_default = r.cfg.ms_grid == kSkyDefaultMultipleGrid &&
+                                r.cfg.ms_samples == defaults.multiple.view_samples;
+        std::string grid_label = r.cfg.ms_grid == 0 ? "0 (every ray)" : std::to_string(r.cfg.ms_grid);
+        if (r.cfg.grid == -1) grid_label += ", sky grid auto";
+        const double rel = seconds_default > 0 ? r.seconds / seconds_default : std::nan("");
+        char line[512];
+        std::snprintf(line, sizeof line, "| %s%s%s | %d | %.1f | %.2f | %s | %s | %s | %s | %s | %s | %s |\n",
+                      is_default ? "**" : "", grid_label.c_str(), is_default ? "**" : "", r.cfg.ms_samples,
+                      r.seconds * 1e3, rel, pct(r.above.p95).c_str(), pct(r.above.mean).c_str(),
+                      pct(r.above.max).c_str(), pct(r.below.p95).c_str(), pct(r.below.mean).c_str(),
+                      pct(r.below.max).c_str(), pct(r.worst).c_str());
+        md << line;
+        csv << r.cfg.ms_grid << "," << r.cfg.ms_samples << "," << r.cfg.grid << "," << format_g17(r.seconds * 1e3)
+            << "," << format_g17(rel) << "," << threads << "," << format_g17(r.above.p95) << ","
+            << format_g17(r.above.mean) << "," << format_g17(r.above.max) << "," << format_g17(r.below.p95) << ","
+            << format_g17(r.below.mean) << "," << format_g17(r.below.max) << "," << format_g17(r.worst) << "\n";
+    }
+    write_text_atomic(fs::path(out_dir) / "sky_ms_view.csv", csv.str());
+    write_text_atomic(fs::path(out_dir) / "sky_ms_view.md", md.str());
+    return md.str();
+}
+
 struct Options {
     std::string out = "out/sky";
     std::string preset = "earth";
     int width = 128;
     int reference_samples = 128;
     bool quick = false;
+    bool multiple_view = true;
 };
 
 void run_report(const Options& opt) {
@@ -496,12 +668,18 @@ void run_report(const Options& opt) {
     write_text_atomic(fs::path(opt.out) / "sky_reference.csv", ref_csv.str());
     write_text_atomic(fs::path(opt.out) / "sky_trade.md", md.str());
     std::fputs(md.str().c_str(), stdout);
+    if (opt.multiple_view) {
+        const std::string view = ms_view_report(opt.out, opt.preset, base, opt.quick, threads);
+        std::fputs(("\n" + view).c_str(), stdout);
+    }
 }
 
 }  // namespace
 
 void add_report_sky(CLI::App& report) {
-    auto* cmd = report.add_subcommand("sky", "Sky texture: error vs time per megapixel for Chapman × samples × basis");
+    auto* cmd = report.add_subcommand("sky",
+                                      "Sky texture: error vs time per megapixel for Chapman × samples × basis × "
+                                      "grid, and the multiple-scattering view (--ms-grid × --ms-samples)");
     auto opt = std::make_shared<Options>();
     cmd->add_option("--out", opt->out, "Output directory")->capture_default_str();
     cmd->add_option("--preset", opt->preset, "Scene preset")->capture_default_str();
@@ -512,6 +690,8 @@ void add_report_sky(CLI::App& report) {
         ->check(int_in(16, 65536))
         ->capture_default_str();
     cmd->add_flag("--quick", opt->quick, "A small subset (smoke test): 2 methods × 2 sample counts, 3 conditions");
+    cmd->add_flag("!--no-multiple-view", opt->multiple_view,
+                  "Leave out the multiple-scattering view's trade (--ms-grid × --ms-samples, sky_ms_view.md)");
     cmd->callback([opt] { run_report(*opt); });
 }
 
