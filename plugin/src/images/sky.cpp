@@ -296,12 +296,15 @@ void add_sun_disc(const FrameContext& ctx, const SkySettings& settings, FloatIma
     }
 }
 
+// The column that mirrors column x (mirror_key's k ≥ 0): (k − 1 − x) mod W.
+int mirror_column(long key, int x, int W) { return static_cast<int>(((key - 1 - x) % W + W) % W); }
+
 // The image columns a per-pixel render evaluates: every column, or with the mirror (key ≥ 0)
 // one of each mirrored pair.
 std::vector<int> evaluated_columns(long key, int W) {
     std::vector<int> columns;
     for (int x = 0; x < W; ++x) {
-        const long m = key >= 0 ? ((key - 1 - x) % W + W) % W : x;
+        const long m = key >= 0 ? mirror_column(key, x, W) : x;
         if (x <= m) columns.push_back(x);
     }
     return columns;
@@ -683,7 +686,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                                         std::max(v[ch] * pr + v[3 + ch] * pm + v[6 + ch], 0.0) * (1.0 - T) +
                                         std::max(v[9 + ch], 0.0) * T);
                                 if (key >= 0)
-                                    std::copy(px, px + 3, image.at(static_cast<int>(((key - 1 - x) % W + W) % W), y));
+                                    std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
                             }
                         }
                     }
@@ -709,7 +712,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                             const int x = columns[k];
                             float* px = image.at(x, y);
                             store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
-                            if (key >= 0) std::copy(px, px + 3, image.at(static_cast<int>(((key - 1 - x) % W + W) % W), y));
+                            if (key >= 0) std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
                         }
                     }
                     report(1);
