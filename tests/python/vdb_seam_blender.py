@@ -7,7 +7,8 @@ pixels (the red channel, float) as a .npy file.
     blender -b --factory-startup --python-exit-code 1 --python vdb_seam_blender.py -- \\
         --jobs jobs.json
 
-jobs.json: {"camera": {"center": [x, y, z], "scale": s, "pixels": n}, "grid": name,
+jobs.json ("separate_names": true picks names whose Cycles face offsets differ, below):
+           {"camera": {"center": [x, y, z], "scale": s, "pixels": n}, "grid": name,
             "samples": n, "step": world-space ray-marching step, "renders": [{"files": [...], "seed": k, "out": "x.npy"}, ...]}
 """
 import argparse
@@ -74,18 +75,67 @@ em.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
 nt.links.new(at.outputs["Fac"], em.inputs["Strength"])
 nt.links.new(em.outputs["Emission"], out.inputs["Volume"])
 
+# Cycles before 5.0 shifts each volume's mesh by (0.1 * hash(name) / dim) object units per axis
+# (dim: the padded topology's voxels; scene/volume.cpp, face_overlap_avoidance) so that the
+# coincident faces of overlapping volumes differ. When two tiles' shifts agree to a few float
+# ulps along an axis, one of them is missed where their faces meet and its whole contribution
+# along those rays is lost. Names are chosen so that every axis's shifts differ by > SEPARATION.
+SEPARATION = 1e-5
+M32 = 0xFFFFFFFF
+
+
+def _rot(x, k):
+    return ((x << k) | (x >> (32 - k))) & M32
+
+
+def cycles_name_hash(name):
+    """Cycles' hash_uint_to_float(hash_string(name)) (util/hash.h)."""
+    kx = 0
+    for ch in name.encode():
+        kx = (kx * 37 + ch) & M32
+    a = b = c = (0xdeadbeef + (1 << 2) + 13) & M32
+    a = (a + kx) & M32
+    c ^= b; c = (c - _rot(b, 14)) & M32; a ^= c; a = (a - _rot(c, 11)) & M32; b ^= a; b = (b - _rot(a, 25)) & M32
+    c ^= b; c = (c - _rot(b, 16)) & M32; a ^= c; a = (a - _rot(c, 4)) & M32; b ^= a; b = (b - _rot(a, 14)) & M32
+    c ^= b; c = (c - _rot(b, 24)) & M32
+    return float(np.float32(c) / np.float32(4294967295.0))
+
+
+def separated_names(files, grid_name, prefix):
+    import pyopenvdb as vdb
+    shifts, names = [], []
+    for k, path in enumerate(files):
+        g = vdb.read(path, grid_name)
+        lo, hi = g.evalActiveVoxelBoundingBox()
+        dim = np.array(hi) - np.array(lo) + 1 + 2  # padded by one voxel each side
+        for attempt in range(100000):
+            name = "%s%d_%d" % (prefix, k, attempt)
+            sh = 0.1 * cycles_name_hash(name) / dim
+            if all(np.min(np.abs(sh - o)) > SEPARATION for o in shifts):
+                break
+        shifts.append(sh)
+        names.append(name)
+    return names
+
+
 for r_i, job in enumerate(jobs["renders"]):
     for ob in [o for o in scene.objects if o.type == "VOLUME"]:
         bpy.data.objects.remove(ob, do_unlink=True)
+    for vol in list(bpy.data.volumes):  # else a name in use gets ".001" (another Cycles hash)
+        bpy.data.volumes.remove(vol)
+    prefix = os.environ.get("SEAM_NAME", "v")
+    names = (separated_names(job["files"], jobs["grid"], prefix) if jobs.get("separate_names")
+             else [prefix + "%d_%d" % (r_i, k) for k in jobs.get("names", range(len(job["files"])))])
     for i, path in enumerate(job["files"]):
-        vol = bpy.data.volumes.new(os.environ.get("SEAM_NAME", "v") + "%d_%d" % (r_i, jobs.get("names", range(10**6))[i]))
+        vol = bpy.data.volumes.new(names[i])
+        assert vol.name == names[i], (vol.name, names[i])
         vol.filepath = path
         vol.render.clipping = 0.0
         vol.render.precision = "FULL"
         vol.render.space = "WORLD"
         vol.render.step_size = float(jobs["step"])
         vol.materials.append(mat)
-        ob = bpy.data.objects.new("v%d_%d" % (r_i, i), vol)
+        ob = bpy.data.objects.new(names[i], vol)
         scene.collection.objects.link(ob)
     scene.cycles.seed = int(job["seed"])
     exr = job["out"] + ".exr"
