@@ -337,9 +337,37 @@ TEST(Vdb, TilesPartitionTheVoxelsOfTheSingleGrid) {
             if (!rb.grids.count(name)) continue;
             const auto& g = rb.grids.at(name);
             EXPECT_EQ(g->metaValue<int>("airmass:tile"), int(t));
-            EXPECT_EQ(manifest["tiles"][t]["grids"][name]["active_voxels"].get<std::uint64_t>(), g->activeVoxelCount());
             auto ref = one.tiles[0].grids[c]->getConstAccessor();
+            // Guard voxels (kVolumeGuardValue): the single grid's active voxels just outside this
+            // tile's values (26 neighbours), inside the plan's dense box; not counted as values.
+            std::uint64_t guards = 0;
+            const auto pg = std::find_if(tiled.grids.begin(), tiled.grids.end(),
+                                         [&](const VdbGridStats& s) { return s.tile == t && s.name == name; });
+            ASSERT_NE(pg, tiled.grids.end());
+            const VoxelBox dense_box{{pg->dense_bbox[0], pg->dense_bbox[1], pg->dense_bbox[2]},
+                                     {pg->dense_bbox[3], pg->dense_bbox[4], pg->dense_bbox[5]}};
+            const VoxelBox value_box{{pg->bbox[0], pg->bbox[1], pg->bbox[2]}, {pg->bbox[3], pg->bbox[4], pg->bbox[5]}};
             for (auto it = g->cbeginValueOn(); it; ++it) {
+                const Coord q = it.getCoord();
+                ASSERT_TRUE(dense_box.contains(VoxelCoord{q.x(), q.y(), q.z()})) << q;
+                if (*it != kVolumeGuardValue) continue;
+                ++guards;
+                ASSERT_FALSE(value_box.contains(VoxelCoord{q.x(), q.y(), q.z()})) << "guard among the values: " << q;
+                ASSERT_TRUE(ref.isValueOn(q)) << "guard where the single grid has no value: " << q;
+                bool next_to_value = false;
+                for (int dx = -1; dx <= 1; ++dx)
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dz = -1; dz <= 1; ++dz) {
+                            const Coord n = q.offsetBy(dx, dy, dz);
+                            next_to_value |= g->tree().isValueOn(n) && g->tree().getValue(n) != kVolumeGuardValue;
+                        }
+                ASSERT_TRUE(next_to_value) << "guard away from the values: " << q;
+            }
+            EXPECT_GT(guards, 0u);
+            EXPECT_EQ(manifest["tiles"][t]["grids"][name]["active_voxels"].get<std::uint64_t>(),
+                      g->activeVoxelCount() - guards);
+            for (auto it = g->cbeginValueOn(); it; ++it) {
+                if (*it == kVolumeGuardValue) continue;
                 ASSERT_FALSE(seen_acc.isValueOn(it.getCoord())) << "twice: " << it.getCoord();
                 seen_acc.setValueOn(it.getCoord(), true);
                 ASSERT_EQ(*it, ref.getValue(it.getCoord()));
@@ -736,7 +764,7 @@ TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
     EXPECT_EQ(plan.stats.dense_bytes_untiled, vol.stats.dense_bytes_untiled);
     const VoxelBox bounds = volume_request_bounds(layout);
     const VolumeSampler sampler(layout);
-    std::uint64_t compared = 0;
+    std::uint64_t compared = 0, guards_seen = 0;
     for (std::size_t i = 0; i < plan.stats.grids.size(); ++i) {
         const VdbGridStats& pg = plan.stats.grids[i];
         const VdbGridStats& wg = vol.stats.grids[i];
@@ -748,9 +776,28 @@ TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
         EXPECT_EQ(pg.dense_voxels, wg.dense_voxels);
         const std::size_t c = plan.grid_constituent[i];
         ASSERT_EQ(layout.constituents[c].name, pg.name);
-        const auto& g = vol.tiles[pg.tile].grids[c];
-        ASSERT_TRUE(g);
+        ASSERT_TRUE(vol.tiles[pg.tile].grids[c]);
         const VoxelBox box = box_of(pg);
+        // The file's grid = the values + guard voxels (several tiles only: docs/vdb.md "Tiling"),
+        // all within the plan's dense box; the rest compares the values.
+        const auto g = vol.tiles[pg.tile].grids[c]->deepCopy();
+        std::uint64_t guards = 0;
+        for (auto it = g->beginValueOn(); it; ++it) {
+            const Coord q = it.getCoord();
+            EXPECT_TRUE(q.x() >= pg.dense_bbox[0] && q.y() >= pg.dense_bbox[1] && q.z() >= pg.dense_bbox[2] &&
+                        q.x() <= pg.dense_bbox[3] && q.y() <= pg.dense_bbox[4] && q.z() <= pg.dense_bbox[5])
+                << q;
+            if (*it != kVolumeGuardValue) continue;
+            ++guards;
+            EXPECT_FALSE(box.contains(VoxelCoord{q.x(), q.y(), q.z()})) << q;
+            it.setValueOff();
+            it.setValue(0.0f);
+        }
+        if (GetParam() != LayerCase::tiled) {
+            EXPECT_EQ(guards, 0u);
+            EXPECT_EQ(pg.dense_bbox, pg.bbox);
+        }
+        guards_seen += guards;
         ASSERT_TRUE(bounds.contains(box));
         // The metadata the plan carries is the grid's, key for key and type for type.
         for (const auto& m : volume_grid_metadata(layout, c, pg.tile, plan.stats.tiles)) {
@@ -810,6 +857,9 @@ TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
         }
     }
     EXPECT_GT(compared, 1000u);
+    if (GetParam() == LayerCase::tiled) {
+        EXPECT_GT(guards_seen, 0u);
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(VdbRegions, VdbVolumeLayer,

@@ -12,7 +12,9 @@ module the running Blender has:
 gridClass, metadata items, write(filename, grids, metadata)). The values are copied block by
 block (slabs of whole 8-voxel leaves along i) with tolerance 0: a voxel is active exactly when
 the library's value is nonzero, as in the grids `airmass vdb` writes, so both give the same
-grids, transforms and metadata.
+grids, transforms and metadata. Tiled volumes also get the library's guard voxels (the plan's
+guard_value, the smallest normal float, at the other tiles' values next to a tile's; see
+with_guards and docs/vdb.md "Tiling"), computed here with numpy from the same blocks.
 
 Files are written atomically: each to a hidden temporary in the destination folder, all moved
 into place (os.replace) only after the last was written; a failure or a cancel removes the
@@ -197,8 +199,45 @@ def _keep_previous(dest):
     return link
 
 
+def tile_cube(plan, grid):
+    """The index box (min, max) of the lattice cube holding `grid`'s tile, or None for one tile."""
+    tiling = plan.get("tiling") or {}
+    t = int(tiling.get("tile_voxels", 0))
+    if t <= 0:
+        return None
+    base = tiling["base"]
+    lo = [b + ((m - b) // t) * t for m, b in zip(grid["bbox_min"], base)]
+    return lo, [x + t - 1 for x in lo]
+
+
+def with_guards(values, origin, cube, guard_value):
+    """The tile's array from the whole grid's `values` (a box at index `origin`): its values inside
+    the tile's `cube`, `guard_value` at the other tiles' nonzero voxels within one voxel (26
+    neighbours) of a nonzero value inside, 0 elsewhere (airmass/volume.hpp, kVolumeGuardValue)."""
+    import numpy as np
+    shape = values.shape
+    inside = np.zeros(shape, dtype=bool)
+    sl = tuple(slice(max(0, c0 - o), max(0, min(n, c1 - o + 1))) for c0, c1, o, n in zip(cube[0], cube[1], origin, shape))
+    inside[sl] = True
+    nonzero = values != 0
+    mine = nonzero & inside
+    near = np.zeros((shape[0] + 2, shape[1] + 2, shape[2] + 2), dtype=bool)
+    for dx in (0, 1, 2):
+        for dy in (0, 1, 2):
+            for dz in (0, 1, 2):
+                near[dx:dx + shape[0], dy:dy + shape[1], dz:dz + shape[2]] |= mine
+    near = near[1:-1, 1:-1, 1:-1]
+    out = np.where(inside, values, np.float32(0)).astype(np.float32, copy=False)
+    guards = near & ~inside & nonzero
+    out[guards] = np.float32(guard_value)
+    return out, int(np.count_nonzero(guards))
+
+
 def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
-    """One grid of the plan, filled block by block. `done`/`total`: dense voxels for progress."""
+    """One grid of the plan, filled block by block. `done`/`total`: dense voxels for progress.
+    Several tiles: the blocks cover the grid's dense box (values and guards); each is fetched with
+    one more layer on either side along i (clipped to the box), so that a guard's neighbours in
+    the next block are seen."""
     g = vdb.FloatGrid(0.0)
     g.name = grid["name"]
     g.transform = make_transform(vdb, plan["transform"])
@@ -207,22 +246,36 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
         raise RuntimeError("this OpenVDB names the fog volume class %r, the plan %r" % (g.gridClass, plan["grid_class"]))
     # Full 32-bit floats (thin air needs the mantissa) is OpenVDB's default; setting it would add
     # an "is_saved_as_half_float" metadata item the library's grids do not have.
-    for lo, hi in slabs(grid["bbox_min"], grid["bbox_max"]):
+    cube = tile_cube(plan, grid)
+    box_min = grid.get("dense_bbox_min", grid["bbox_min"]) if cube else grid["bbox_min"]
+    box_max = grid.get("dense_bbox_max", grid["bbox_max"]) if cube else grid["bbox_max"]
+    guards = 0
+    for lo, hi in slabs(box_min, box_max):
         n = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
         start = PLAN_SHARE + (1.0 - PLAN_SHARE) * done / total
         end = PLAN_SHARE + (1.0 - PLAN_SHARE) * (done + n) / total
         reporter.check()
-        values = native.vdb_grid_values(spec, grid["name"], lo, hi, progress=reporter.progress,
-                                        progress_range=(start, end), **options)
+        if cube is None:
+            values = native.vdb_grid_values(spec, grid["name"], lo, hi, progress=reporter.progress,
+                                            progress_range=(start, end), **options)
+        else:
+            flo = (max(box_min[0], lo[0] - 1), lo[1], lo[2])
+            fhi = (min(box_max[0], hi[0] + 1), hi[1], hi[2])
+            fetched = native.vdb_grid_values(spec, grid["name"], flo, fhi, progress=reporter.progress,
+                                             progress_range=(start, end), **options)
+            tiled, _ = with_guards(fetched, flo, cube, plan["guard_value"])
+            values = tiled[lo[0] - flo[0]:hi[0] - flo[0] + 1].copy()
+            guards += int((values == tiled.dtype.type(plan["guard_value"])).sum())
+            del fetched, tiled
         g.copyFromArray(values, ijk=tuple(int(x) for x in lo), tolerance=0.0)
         del values
         done += n
         reporter.at(end)
     for key, value in metadata_of(grid).items():
         g[key] = value
-    if g.activeVoxelCount() != grid["active_voxels"]:
-        raise RuntimeError("grid '%s' of tile %d has %d active voxels, the plan %d" % (
-            grid["name"], grid["tile"], g.activeVoxelCount(), grid["active_voxels"]))
+    if g.activeVoxelCount() != grid["active_voxels"] + guards:
+        raise RuntimeError("grid '%s' of tile %d has %d active voxels, the plan %d (+ %d guards)" % (
+            grid["name"], grid["tile"], g.activeVoxelCount(), grid["active_voxels"], guards))
     return g, done
 
 
@@ -245,7 +298,7 @@ def write_volume(spec, folder, stem, progress=None, **options):
     reporter = _Reporter(progress)
     plan = native.vdb_plan(spec, file_stem=stem, progress=progress, progress_range=(0.0, PLAN_SHARE), **options)
     reporter.at(PLAN_SHARE)
-    total = max(1, sum(int(g["dense_voxels"]) for g in plan["grids"]))
+    total = max(1, sum(int(g["dense_voxels"]) for g in plan["grids"]))  # the dense boxes (with guards)
     pending = []  # (temporary, destination)
     previous = {}  # destination -> hidden link to the file it replaces
     try:

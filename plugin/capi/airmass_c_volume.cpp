@@ -79,6 +79,9 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
     j["request_bounds"] = {{"min", ints(rb.min)}, {"max", ints(rb.max)}};
     j["tile_count"] = s.tiles;
     j["tiling"] = {{"tile_voxels", plan.tiling.tile_voxels}, {"base", ints(plan.tiling.base)}};
+    // Guards (several tiles only): each tile's grid also holds, at this value, the active voxels
+    // of the other tiles within one voxel (26 neighbours) of its values (docs/vdb.md "Tiling").
+    j["guard_value"] = airmass::kVolumeGuardValue;
     const std::vector<std::string> names = airmass::volume_file_names(stem, s.tiles);
     json grids = json::array();
     json files = json::array();
@@ -96,6 +99,8 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
                {"bbox_max", {g.bbox[3], g.bbox[4], g.bbox[5]}},
                {"dim", {g.bbox[3] - g.bbox[0] + 1, g.bbox[4] - g.bbox[1] + 1, g.bbox[5] - g.bbox[2] + 1}},
                {"active_voxels", g.active_voxels},
+               {"dense_bbox_min", {g.dense_bbox[0], g.dense_bbox[1], g.dense_bbox[2]}},
+               {"dense_bbox_max", {g.dense_bbox[3], g.dense_bbox[4], g.dense_bbox[5]}},
                {"dense_voxels", g.dense_voxels},
                {"dense_bytes", g.dense_voxels * sizeof(float)},
                {"memory_bytes_estimate", g.memory_bytes}};

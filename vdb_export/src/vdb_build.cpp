@@ -28,6 +28,55 @@ openvdb::FloatGrid::Ptr empty_grid(const VdbLayout& layout, const std::string& n
     return grid;
 }
 
+// Guard voxels (kVolumeGuardValue; airmass/volume.hpp, docs/vdb.md "Tiling") of constituent c:
+// every active voxel of another tile within one voxel (26 neighbours) of a value of tile t
+// joins tile t's grid. Found first, set after, so guards never beget guards.
+void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& plan) {
+    std::vector<std::vector<openvdb::Coord>> guards(tiles.size());
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+        const auto& grid = tiles[t].grids[c];
+        if (!grid) continue;
+        for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
+            const openvdb::Coord o = leaf->origin();
+            std::array<const LeafT*, 27> near{};  // by (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)
+            bool any = false;
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dz = -1; dz <= 1; ++dz) {
+                        if (dx == 0 && dy == 0 && dz == 0) continue;
+                        const openvdb::Coord no = o.offsetBy(dx * LeafT::DIM, dy * LeafT::DIM, dz * LeafT::DIM);
+                        const std::size_t u = plan.find_tile({no.x(), no.y(), no.z()});
+                        if (u == t || u >= tiles.size() || !tiles[u].grids[c]) continue;
+                        const LeafT* n = tiles[u].grids[c]->tree().probeConstLeaf(no);
+                        if (n) near[std::size_t((dx + 1) * 9 + (dy + 1) * 3 + (dz + 1))] = n, any = true;
+                    }
+            if (!any) continue;
+            const auto side = [](int local) { return local < 0 ? 0 : local >= int(LeafT::DIM) ? 2 : 1; };
+            for (auto v = leaf->cbeginValueOn(); v; ++v) {
+                const openvdb::Coord p = v.getCoord();
+                const openvdb::Coord l = p - o;
+                const bool edge = l.x() == 0 || l.y() == 0 || l.z() == 0 || l.x() == int(LeafT::DIM) - 1 ||
+                                  l.y() == int(LeafT::DIM) - 1 || l.z() == int(LeafT::DIM) - 1;
+                if (!edge) continue;
+                for (int dx = -1; dx <= 1; ++dx)
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dz = -1; dz <= 1; ++dz) {
+                            const int sx = side(l.x() + dx), sy = side(l.y() + dy), sz = side(l.z() + dz);
+                            if (sx == 1 && sy == 1 && sz == 1) continue;  // inside this leaf
+                            const LeafT* n = near[std::size_t(sx * 9 + sy * 3 + sz)];
+                            const openvdb::Coord q = p.offsetBy(dx, dy, dz);
+                            if (n && n->isValueOn(q)) guards[t].push_back(q);
+                        }
+            }
+        }
+    }
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+        if (guards[t].empty()) continue;
+        auto acc = tiles[t].grids[c]->getAccessor();
+        for (const auto& q : guards[t]) acc.setValueOn(q, kVolumeGuardValue);
+    }
+}
+
 }  // namespace
 
 VdbVolume build_vdb_volume(const Scene& scene, const VdbOptions& options, const VdbRunOptions& run) {
@@ -70,6 +119,7 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
     // 3. The plan: tiles, grid boxes, limits (throws when a limit is exceeded).
     VolumePlan plan = make_volume_plan(layout, leaves);
     VdbVolume volume;
+    std::vector<std::pair<openvdb::Index64, openvdb::CoordBBox>> values_of;  // tiled: per (tile, grid) before guards
     volume.layout = layout;
     const std::size_t n_tiles = plan.tile_keys.size();
     if (plan.tiling.tile_voxels <= 0) {
@@ -93,6 +143,14 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
             }
             grids[c]->clear();
         }
+        // The plan's values (checked below need the values' boxes and counts): taken before
+        // the guards join.
+        values_of.resize(n_tiles * nc);
+        for (std::size_t t = 0; t < n_tiles; ++t)
+            for (std::size_t c = 0; c < nc; ++c)
+                if (const auto& g = volume.tiles[t].grids[c])
+                    values_of[t * nc + c] = {g->activeVoxelCount(), g->evalActiveVoxelBoundingBox()};
+        for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan);
     }
     grids.clear();
 
@@ -108,10 +166,14 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
             detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size()));
             if (gi >= s.grids.size()) throw std::logic_error("vdb_export: more grids than the volume plan lists");
             VdbGridStats& gs = s.grids[gi++];
-            const openvdb::CoordBBox bb = g->evalActiveVoxelBoundingBox();
+            const openvdb::CoordBBox all = g->evalActiveVoxelBoundingBox();
+            const auto [active, bb] = values_of.empty() ? std::make_pair(g->activeVoxelCount(), all) : values_of[t * nc + c];
             const std::array<std::int32_t, 6> box{bb.min().x(), bb.min().y(), bb.min().z(),
                                                   bb.max().x(), bb.max().y(), bb.max().z()};
-            if (gs.name != g->getName() || gs.tile != t || gs.active_voxels != g->activeVoxelCount() || gs.bbox != box)
+            const auto& d = gs.dense_bbox;
+            const bool in_dense = all.min().x() >= d[0] && all.min().y() >= d[1] && all.min().z() >= d[2] &&
+                                  all.max().x() <= d[3] && all.max().y() <= d[4] && all.max().z() <= d[5];
+            if (gs.name != g->getName() || gs.tile != t || gs.active_voxels != active || gs.bbox != box || !in_dense)
                 throw std::logic_error("vdb_export: grid '" + g->getName() + "' of tile " + std::to_string(t) +
                                        " differs from the volume plan");
             gs.memory_bytes = g->memUsage();

@@ -184,8 +184,12 @@ struct VdbGridStats {
     std::string name;
     std::size_t tile = 0;
     std::uint64_t active_voxels = 0;
-    std::array<std::int32_t, 6> bbox{};  // active index bounding box, min then max (inclusive)
-    std::uint64_t dense_voxels = 0;      // bbox volume: what Blender 3.4 densifies
+    std::array<std::int32_t, 6> bbox{};  // the values' index bounding box, min then max (inclusive)
+    // The box with the tile's guard voxels (kVolumeGuardValue, at the other tiles' values next
+    // to this tile's; docs/vdb.md "Tiling"): what Blender 3.4 densifies. A plan bounds it from
+    // the leaves' boxes; equal to bbox for a single tile.
+    std::array<std::int32_t, 6> dense_bbox{};
+    std::uint64_t dense_voxels = 0;      // dense_bbox volume
     std::uint64_t memory_bytes = 0;      // OpenVDB tree in memory (a plan estimates it from its leaves)
 };
 
@@ -297,6 +301,14 @@ std::vector<VolumeLeaf> sample_volume(const VolumeSampler& sampler, const Volume
 
 // ---- tiling and the plan -----------------------------------------------------------------
 
+// The value of a tile's guard voxels: active voxels just outside the tile, where another
+// tile has values, one within one voxel (26 neighbours) of a value of this tile. They make
+// Cycles before Blender 5.0 cover the cells where two tiles' interpolants meet (its volume
+// mesh is the grid's active 8^3 leaves, padded across faces only; docs/vdb.md "Tiling").
+// The smallest normal float, not 0: OpenVDB's copyFromArray(tolerance = 0) keeps it active,
+// and its density is ~1e-38 of any threshold (invisible). Single-tile exports have none.
+inline constexpr float kVolumeGuardValue = 1.17549435e-38f;  // std::numeric_limits<float>::min()
+
 // The lattice of cubes the grids are split along (docs/vdb.md, "Tiling").
 struct VolumeTiling {
     int tile_voxels = 0;            // edge in voxels; 0 = one tile
@@ -323,6 +335,10 @@ struct VolumePlan {
 
     // The tile holding the block at `origin` (a leaf of the sampling pass).
     std::size_t tile_of(const VoxelCoord& origin) const;
+    // The tile whose cube holds the block at `origin`, or tiles() when no tile does (a block
+    // outside the lattice or in a cube without active voxels).
+    std::size_t find_tile(const VoxelCoord& origin) const;
+    std::size_t tiles() const { return tile_keys.size(); }
 };
 
 // Tiling, grids and limits from the leaves of a sampling pass. Throws VdbError when no

@@ -35,18 +35,94 @@ std::uint64_t tile_key(const VoxelCoord& origin, const VoxelCoord& base, int til
     return key;
 }
 
-// Σ over (tile, grid) of the tile's bbox volume, and the number of non-empty tiles.
-std::pair<std::uint64_t, std::size_t> dense_for(const std::vector<VolumeLeaf>& leaves, std::size_t nc,
-                                                const VoxelCoord& base, int tile_voxels) {
-    std::unordered_map<std::uint64_t, std::vector<VoxelBox>> tiles;
+// The leaves' neighbours: for each leaf, the indices of the (up to 26) leaves of the same
+// constituent whose blocks touch it (faces, edges, corners). Flat: leaf i's are
+// index[offset[i], offset[i + 1]).
+struct LeafNeighbours {
+    std::vector<std::uint32_t> offset, index;
+};
+
+LeafNeighbours leaf_neighbours(const std::vector<VolumeLeaf>& leaves) {
+    struct Key {
+        VoxelCoord o;
+        std::uint32_t c;
+        bool operator==(const Key&) const = default;
+    };
+    struct Hash {
+        std::size_t operator()(const Key& k) const {
+            std::uint64_t h = std::uint32_t(k.o[0]);
+            h = h * 0x9E3779B97F4A7C15ull ^ std::uint32_t(k.o[1]);
+            h = h * 0x9E3779B97F4A7C15ull ^ std::uint32_t(k.o[2]);
+            h = h * 0x9E3779B97F4A7C15ull ^ k.c;
+            return std::size_t(h ^ (h >> 29));
+        }
+    };
+    std::unordered_map<Key, std::uint32_t, Hash> at;
+    at.reserve(leaves.size());
+    for (std::size_t i = 0; i < leaves.size(); ++i) at.emplace(Key{leaves[i].origin, leaves[i].constituent}, std::uint32_t(i));
+    LeafNeighbours n;
+    n.offset.reserve(leaves.size() + 1);
+    n.offset.push_back(0);
     for (const auto& leaf : leaves) {
-        auto& v = tiles[tile_key(leaf.origin, base, tile_voxels)];
-        if (v.empty()) v.resize(nc);
-        v[leaf.constituent].expand(leaf.active_box);
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) {
+                    if (dx == 0 && dy == 0 && dz == 0) continue;
+                    const VoxelCoord o{leaf.origin[0] + dx * kDim, leaf.origin[1] + dy * kDim, leaf.origin[2] + dz * kDim};
+                    const auto it = at.find(Key{o, leaf.constituent});
+                    if (it != at.end()) n.index.push_back(it->second);
+                }
+        n.offset.push_back(std::uint32_t(n.index.size()));
     }
+    return n;
+}
+
+// Where leaf `a`'s tile may get guard voxels in neighbour leaf `n` (another tile's): n's
+// active voxels within one voxel of a's — bounded by a's box grown by one ∩ n's box.
+VoxelBox guard_bound(const VolumeLeaf& a, const VolumeLeaf& n) {
+    VoxelBox b;
+    for (int k = 0; k < 3; ++k) {
+        b.min[k] = std::max(a.active_box.min[k] - 1, n.active_box.min[k]);
+        b.max[k] = std::min(a.active_box.max[k] + 1, n.active_box.max[k]);
+    }
+    return b;
+}
+
+struct TileBoxes {
+    VoxelBox values, dense;  // the values' box; with the guards
+};
+
+// Per (tile key, constituent): the boxes of a lattice (tile_voxels <= 0: one tile, no guards).
+std::unordered_map<std::uint64_t, std::vector<TileBoxes>> tile_boxes(const std::vector<VolumeLeaf>& leaves,
+                                                                    const LeafNeighbours& nb, std::size_t nc,
+                                                                    const VoxelCoord& base, int tile_voxels) {
+    std::vector<std::uint64_t> key(leaves.size());
+    for (std::size_t i = 0; i < leaves.size(); ++i) key[i] = tile_key(leaves[i].origin, base, tile_voxels);
+    std::unordered_map<std::uint64_t, std::vector<TileBoxes>> tiles;
+    for (std::size_t i = 0; i < leaves.size(); ++i) {
+        auto& v = tiles[key[i]];
+        if (v.empty()) v.resize(nc);
+        TileBoxes& b = v[leaves[i].constituent];
+        b.values.expand(leaves[i].active_box);
+        b.dense.expand(leaves[i].active_box);
+        if (tile_voxels <= 0) continue;
+        for (std::uint32_t j = nb.offset[i]; j < nb.offset[i + 1]; ++j) {
+            const std::uint32_t n = nb.index[j];
+            if (key[n] == key[i]) continue;
+            const VoxelBox g = guard_bound(leaves[i], leaves[n]);
+            if (!g.empty()) b.dense.expand(g);
+        }
+    }
+    return tiles;
+}
+
+// Σ over (tile, grid) of the tile's dense box volume (with guards), and the number of non-empty tiles.
+std::pair<std::uint64_t, std::size_t> dense_for(const std::vector<VolumeLeaf>& leaves, const LeafNeighbours& nb,
+                                                std::size_t nc, const VoxelCoord& base, int tile_voxels) {
+    const auto tiles = tile_boxes(leaves, nb, nc, base, tile_voxels);
     std::uint64_t dense = 0;
     for (const auto& [key, v] : tiles)
-        for (const auto& b : v) dense += b.volume();
+        for (const auto& b : v) dense += b.dense.volume();
     return {dense, tiles.size()};
 }
 
@@ -55,9 +131,10 @@ std::pair<std::uint64_t, std::size_t> dense_for(const std::vector<VolumeLeaf>& l
 VolumeTiling choose_volume_tiling(const std::vector<VolumeLeaf>& leaves, std::size_t nc, const VdbOptions& options) {
     VoxelBox all;
     for (const auto& leaf : leaves) all.expand(leaf.active_box);
+    const LeafNeighbours nb = leaf_neighbours(leaves);
     VolumeTiling best;
     best.base = all.empty() ? VoxelCoord{0, 0, 0} : block_floor(all.min);
-    const auto [untiled, one] = dense_for(leaves, nc, best.base, 0);
+    const auto [untiled, one] = dense_for(leaves, nb, nc, best.base, 0);
     best.dense_voxels = best.dense_voxels_untiled = untiled;
     best.tiles = one;
     if (options.tile_voxels == -1 || all.empty()) return best;
@@ -74,7 +151,7 @@ VolumeTiling choose_volume_tiling(const std::vector<VolumeLeaf>& leaves, std::si
     };
     if (options.tile_voxels > 0) {
         const VoxelCoord base = lattice(options.tile_voxels);
-        const auto [dense, n] = dense_for(leaves, nc, base, options.tile_voxels);
+        const auto [dense, n] = dense_for(leaves, nb, nc, base, options.tile_voxels);
         if (n > std::size_t(options.max_tiles))
             throw VdbError("--tile-voxels = " + std::to_string(options.tile_voxels) + " gives " + std::to_string(n) +
                            " tiles > --max-tiles = " + std::to_string(options.max_tiles) +
@@ -106,7 +183,7 @@ VolumeTiling choose_volume_tiling(const std::vector<VolumeLeaf>& leaves, std::si
         VolumeTiling c = best;
         c.tile_voxels = t;
         c.base = lattice(t);
-        std::tie(c.dense_voxels, c.tiles) = dense_for(leaves, nc, c.base, t);
+        std::tie(c.dense_voxels, c.tiles) = dense_for(leaves, nb, nc, c.base, t);
         if (c.tiles > std::size_t(options.max_tiles)) break;
         if (better(c, best)) best = c;
     }
@@ -118,6 +195,16 @@ std::size_t VolumePlan::tile_of(const VoxelCoord& origin) const {
     const auto it = std::lower_bound(tile_keys.begin(), tile_keys.end(), key);
     if (it == tile_keys.end() || *it != key) throw std::out_of_range("VolumePlan::tile_of: a block outside every tile");
     return std::size_t(it - tile_keys.begin());
+}
+
+std::size_t VolumePlan::find_tile(const VoxelCoord& origin) const {
+    if (tiling.tile_voxels <= 0) return 0;
+    for (int a = 0; a < 3; ++a)
+        if (origin[a] < tiling.base[a] || std::int64_t(origin[a] - tiling.base[a]) / tiling.tile_voxels >= (1 << 21))
+            return tiles();
+    const std::uint64_t key = tile_key(origin, tiling.base, tiling.tile_voxels);
+    const auto it = std::lower_bound(tile_keys.begin(), tile_keys.end(), key);
+    return it == tile_keys.end() || *it != key ? tiles() : std::size_t(it - tile_keys.begin());
 }
 
 VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLeaf>& leaves) {
@@ -133,7 +220,7 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
     const std::size_t tiles = plan.tile_keys.size();
 
     struct Acc {
-        VoxelBox box;
+        VoxelBox box, dense;
         std::uint64_t active = 0, leaves = 0;
     };
     std::vector<Acc> acc(tiles * nc);
@@ -142,6 +229,13 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
         a.box.expand(leaf.active_box);
         a.active += leaf.active_voxels;
         ++a.leaves;
+    }
+    if (plan.tiling.tile_voxels > 0) {
+        const auto boxes = tile_boxes(leaves, leaf_neighbours(leaves), nc, plan.tiling.base, plan.tiling.tile_voxels);
+        for (std::size_t t = 0; t < tiles; ++t)
+            for (std::size_t c = 0; c < nc; ++c) acc[t * nc + c].dense = boxes.at(plan.tile_keys[t])[c].dense;
+    } else {
+        for (Acc& a : acc) a.dense = a.box;
     }
     VdbStats& s = plan.stats;
     s.voxel_size = layout.voxel_size;
@@ -156,7 +250,8 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
             g.tile = t;
             g.active_voxels = a.active;
             g.bbox = {a.box.min[0], a.box.min[1], a.box.min[2], a.box.max[0], a.box.max[1], a.box.max[2]};
-            g.dense_voxels = a.box.volume();
+            g.dense_bbox = {a.dense.min[0], a.dense.min[1], a.dense.min[2], a.dense.max[0], a.dense.max[1], a.dense.max[2]};
+            g.dense_voxels = a.dense.volume();
             g.memory_bytes = std::uint64_t(double(a.leaves) * kLeafBytes);
             s.active_voxels += g.active_voxels;
             s.memory_bytes += g.memory_bytes;
