@@ -22,6 +22,7 @@ BLOCKS = {
     "sky_trade": "sky/sky_trade.md",
     "sky_ms_view": "sky/sky_ms_view.md",
     "vdb_trade": "vdb/vdb_trade.md",
+    "vdb_tolerance": "vdb/vdb_tolerance.md",
     "ms_trade": "ms/ms_trade.md",
     "ms_presets": "ms/ms_presets.md",
     "compare": "compare/report.md#Summary",  # the report's "## Summary" section
@@ -58,8 +59,9 @@ def update_blocks(path, out):
         if name == "gallery":  # its images live in docs/images/ as sky_<name>.png
             prefix = "" if os.path.dirname(path).endswith("docs") else "docs/"
             body = re.sub(r"\]\(([\w-]+)\.png\)", r"](%simages/sky_\1.png)" % prefix, body)
-        pattern = re.compile(r"(<!-- BEGIN %s -->\n).*?(\n<!-- END %s -->)" % (name, name), re.S)
-        text, n = pattern.subn(lambda m: m.group(1) + body + m.group(2), text)
+        # An empty block (END on the line after BEGIN) is filled too.
+        pattern = re.compile(r"(<!-- BEGIN %s -->\n)(?:.*?\n)?(<!-- END %s -->)" % (name, name), re.S)
+        text, n = pattern.subn(lambda m: m.group(1) + body + "\n" + m.group(2), text)
         if n:
             done.append(name)
     tmp = path + ".tmp"

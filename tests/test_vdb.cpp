@@ -927,6 +927,7 @@ TEST(VdbTrade, GridOpticalDepthConvergesToTheAnalyticValue) {
     VdbTradeOptions t;
     t.voxel_sizes = {8.0, 2.0};
     t.measure_view_region = false;
+    t.tolerances.clear();
     const auto rows = run_vdb_trade(scene, t).rays;
     ASSERT_EQ(rows.size(), 2 * vdb_trade_rays(scene).size());
     for (const auto& r : rows) {
@@ -941,5 +942,71 @@ TEST(VdbTrade, GridOpticalDepthConvergesToTheAnalyticValue) {
         const auto& fine = rows[i + rows.size() / 2];
         ASSERT_EQ(coarse.ray, fine.ray);
         EXPECT_LT(fine.tau_rel_error_max, coarse.tau_rel_error_max) << coarse.ray;
+    }
+}
+
+// The activity threshold's trade: what the inactive cells remove along each ray (through grids
+// on one lattice) stays within the bound VdbOptions::tolerance promises per constituent, grows
+// with the tolerance, and is not zero (the threshold acts); the grids shrink.
+TEST(VdbTrade, InactiveCellsRemoveAtMostTheTolerancePerConstituent) {
+    const Scene scene = load_preset("earth");
+    VdbTradeOptions t;
+    t.voxel_sizes.clear();
+    t.measure_view_region = false;
+    t.tolerances = {1e-2, 1e-3, 1e-3};  // unsorted, repeated: measured once each, 0 added first
+    t.tolerance_voxel_size = 4.0;
+    const auto r = run_vdb_trade(scene, t);
+    const std::size_t n_rays = vdb_trade_rays(scene).size();
+    ASSERT_EQ(r.tolerance_rays.size(), 3 * n_rays);
+    ASSERT_EQ(r.tolerance_costs.size(), 3u);
+    EXPECT_EQ(r.constituents, 3u);  // Rayleigh, Mie, ozone
+    EXPECT_EQ(r.tolerance_voxel_size, 4.0);
+    double removed_most = 0;
+    for (std::size_t i = 0; i < n_rays; ++i) {
+        const auto& all = r.tolerance_rays[i];
+        const auto& mid = r.tolerance_rays[n_rays + i];
+        const auto& coarse = r.tolerance_rays[2 * n_rays + i];
+        SCOPED_TRACE(all.ray);
+        EXPECT_EQ(all.tolerance, 0.0);
+        EXPECT_EQ(mid.tolerance, 1e-3);
+        EXPECT_EQ(coarse.tolerance, 1e-2);
+        EXPECT_EQ(all.tau_removed_max, 0.0);
+        for (const auto* row : {&mid, &coarse}) {
+            EXPECT_TRUE(std::isfinite(row->tau_rel_error_max));
+            EXPECT_GE(row->tau_removed_max, -1e-12);
+            EXPECT_LE(row->tau_removed_max, row->tolerance * 3.0);
+        }
+        EXPECT_GE(coarse.tau_removed_max, mid.tau_removed_max - 1e-12);
+        removed_most = std::max(removed_most, coarse.tau_removed_max);
+    }
+    EXPECT_GT(removed_most, 1e-5);  // the threshold removes something measurable at 1e-2
+    EXPECT_GT(r.tolerance_costs[0].active_voxels, r.tolerance_costs[1].active_voxels);
+    EXPECT_GT(r.tolerance_costs[1].active_voxels, r.tolerance_costs[2].active_voxels);
+    // The text: every tolerance row of the table, the bound in its column.
+    const std::string md = vdb_tolerance_markdown(r, "earth");
+    EXPECT_NE(md.find("| 0 (all) | 0.00e+00 |"), std::string::npos) << md;
+    EXPECT_NE(md.find("| 0.01 | 3.00e-02 |"), std::string::npos) << md;
+    EXPECT_EQ(vdb_tolerance_rays_csv(r).find("tolerance,voxel_size_km,ray,"), 0u);
+}
+
+TEST(VdbTrade, ToleranceTradeRefusesBadInputWithTheFieldName) {
+    const Scene scene = load_preset("earth");
+    VdbTradeOptions t;
+    t.voxel_sizes.clear();
+    t.measure_view_region = false;
+    t.tolerances = {-1e-3};
+    try {
+        run_vdb_trade(scene, t);
+        ADD_FAILURE() << "a negative tolerance was accepted";
+    } catch (const VdbError& e) {
+        EXPECT_NE(std::string(e.what()).find("--tolerances"), std::string::npos) << e.what();
+    }
+    t.tolerances = {1e-3};
+    t.tolerance_voxel_size = 0.0;
+    try {
+        run_vdb_trade(scene, t);
+        ADD_FAILURE() << "a zero voxel size was accepted";
+    } catch (const VdbError& e) {
+        EXPECT_NE(std::string(e.what()).find("--tolerance-voxel-size"), std::string::npos) << e.what();
     }
 }

@@ -4,6 +4,9 @@
 //   vdb_trade_rays.csv    voxel size, ray, RGB optical depth reference / grid, errors
 //   vdb_trade_costs.csv   voxel size, region, active voxels, memory, dense boxes, file, times
 //   vdb_trade.md          the Markdown tables docs/vdb.md shows
+//   vdb_tolerance_rays.csv, vdb_tolerance_costs.csv, vdb_tolerance.md
+//                         the activity threshold (--tolerance of `airmass vdb`): optical depth the
+//                         inactive cells remove, against its bound, and what each tolerance costs
 // scripts/plot_vdb_trade.py turns the CSVs into vdb_trade.png.
 #include <cmath>
 #include <cstdio>
@@ -27,12 +30,18 @@ namespace airmass::cli {
 namespace {
 
 struct ReportVdbOptions {
-    std::string out, scene_path, preset = "earth", sizes;
-    bool no_view = false, quiet = false;
+    std::string out, scene_path, preset = "earth", sizes, tolerances;
+    double tolerance_voxel = 1.0;
+    bool no_view = false, no_tolerance = false, quiet = false;
 };
 
 std::vector<double> parse_sizes(const std::string& text) {
     return parse_number_list(text, "report vdb: --voxel-sizes", "a length > 0 (km)", [](double v) { return v > 0.0; });
+}
+
+std::vector<double> parse_tolerances(const std::string& text) {
+    return parse_number_list(text, "report vdb: --tolerances", "an optical depth >= 0",
+                             [](double v) { return std::isfinite(v) && v >= 0.0; });
 }
 
 }  // namespace
@@ -45,11 +54,21 @@ void add_report_vdb(CLI::App& report) {
     cmd->add_option("--preset", o->preset, "Built-in scene")->capture_default_str()->excludes(scene_opt);
     cmd->add_option("--voxel-sizes", o->sizes, "Comma-separated voxel sizes in km  [default 0.25,0.5,1,2,4,8]");
     cmd->add_flag("--no-view", o->no_view, "Skip the cost of the Earth view region (faster)");
+    cmd->add_option("--tolerances", o->tolerances,
+                    "Comma-separated activity tolerances (optical depth) to measure; 0, the baseline, is always "
+                    "measured  [default 1e-6,1e-5,1e-4,1e-3,1e-2]");
+    cmd->add_option("--tolerance-voxel-size", o->tolerance_voxel, "Voxel size of the tolerance trade, km")
+        ->check(number_in(1e-3, 1e3))
+        ->capture_default_str();
+    cmd->add_flag("--no-tolerance", o->no_tolerance, "Skip the tolerance trade");
     cmd->add_flag("-q,--quiet", o->quiet, "No progress bar");
     cmd->callback([o] {
         namespace fs = std::filesystem;
         VdbTradeOptions t;
         if (!o->sizes.empty()) t.voxel_sizes = parse_sizes(o->sizes);  // refused before --out is created
+        if (!o->tolerances.empty()) t.tolerances = parse_tolerances(o->tolerances);
+        if (o->no_tolerance) t.tolerances.clear();
+        t.tolerance_voxel_size = o->tolerance_voxel;
         const fs::path dir(o->out);
         std::error_code ec;
         fs::create_directories(dir, ec);
@@ -60,10 +79,11 @@ void add_report_vdb(CLI::App& report) {
         CancelFlag cancel;
         InterruptGuard guard(cancel);
         t.cancel = &cancel;
-        ProgressBar bar("report vdb", t.voxel_sizes.size(), stderr_is_terminal() && !o->quiet);
+        const std::size_t steps = t.voxel_sizes.size() + (t.tolerances.empty() ? 0 : t.tolerances.size() + 1);
+        ProgressBar bar("report vdb", steps, stderr_is_terminal() && !o->quiet);
         std::size_t shown = 0;
         t.progress = [&](double f) {
-            const auto n = std::size_t(std::lround(f * double(t.voxel_sizes.size())));
+            const auto n = std::size_t(std::lround(f * double(steps)));
             if (n > shown) bar.advance(n - shown), shown = n;
         };
         const VdbTradeResult r = vdb_module().run_vdb_trade(scene, t);
@@ -73,6 +93,13 @@ void add_report_vdb(CLI::App& report) {
         const std::string md = vdb_trade_markdown(r, scene.name);
         write_text_atomic(dir / "vdb_trade.md", md);
         std::printf("%s", md.c_str());
+        if (!r.tolerance_rays.empty()) {
+            write_text_atomic(dir / "vdb_tolerance_rays.csv", vdb_tolerance_rays_csv(r));
+            write_text_atomic(dir / "vdb_tolerance_costs.csv", vdb_tolerance_costs_csv(r));
+            const std::string tmd = vdb_tolerance_markdown(r, scene.name);
+            write_text_atomic(dir / "vdb_tolerance.md", tmd);
+            std::printf("\n%s", tmd.c_str());
+        }
     });
 }
 

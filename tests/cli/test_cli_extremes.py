@@ -260,6 +260,9 @@ OPTIONS = [
     _i("report_ms", "--threads", 0, 4096),
     _t("report_vdb", "--voxel-sizes", r"a length > 0",
        [("1,2", True), ("0", False), ("-1", False), ("nan", False), ("inf", False), ("x", False)]),
+    _t("report_vdb", "--tolerances", r"an optical depth >= 0",
+       [("1e-3,1e-2", True), ("0", True), ("-1", False), ("nan", False), ("inf", False), ("x", False)]),
+    _n("report_vdb", "--tolerance-voxel-size", 1e-3, 1e3),
 ]
 
 

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "airmass/geometry.hpp"
@@ -113,6 +114,20 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
     for (double v : options.voxel_sizes)
         if (!(std::isfinite(v) && v > 0))
             throw VdbError("report vdb: --voxel-sizes: " + detail::fmt(v) + " km: every size must be > 0");
+    // The tolerances: 0 (the baseline) first, then the listed ones ascending, each once.
+    std::vector<double> tolerances;
+    if (!options.tolerances.empty()) {
+        if (!(std::isfinite(options.tolerance_voxel_size) && options.tolerance_voxel_size > 0))
+            throw VdbError("report vdb: --tolerance-voxel-size: " + detail::fmt(options.tolerance_voxel_size) +
+                           " km: must be > 0");
+        for (double t : options.tolerances)
+            if (!(std::isfinite(t) && t >= 0))
+                throw VdbError("report vdb: --tolerances: " + detail::fmt(t) + ": every tolerance must be a finite optical depth >= 0");
+        tolerances = options.tolerances;
+        tolerances.push_back(0.0);
+        std::sort(tolerances.begin(), tolerances.end());
+        tolerances.erase(std::unique(tolerances.begin(), tolerances.end()), tolerances.end());
+    }
     const auto rays = vdb_trade_rays(scene);
     const fs::path scratch_dir = options.scratch_dir.empty() ? fs::temp_directory_path() : options.scratch_dir;
     const fs::path scratch = scratch_dir / ("airmass-vdb-trade-" + std::to_string(::getpid()) + ".vdb");
@@ -162,18 +177,11 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         }
     }
 
-    for (std::size_t vi = 0; vi < options.voxel_sizes.size(); ++vi) {
-        const double v = options.voxel_sizes[vi];
-        if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
-        slab.voxel_size = v;
-        VdbRunOptions run;
-        run.cancel = options.cancel;
-        const VdbVolume vol = build_vdb_volume(scene, slab, run);
+    // RGB optical depth along every ray through a built slab of voxel size v.
+    auto slab_tau = [&](const VdbVolume& vol, double v) {
         const VdbLayout& L = vol.layout;
+        std::vector<std::array<double, 3>> tau(rays.size(), {0, 0, 0});
         for (std::size_t i = 0; i < rays.size(); ++i) {
-            VdbTradeRayRow row;
-            row.voxel_size = v;
-            row.ray = rays[i].name;
             auto [a, b] = in_atmosphere(rays[i], L);
             // The interpolant reaches one voxel past the last active voxel.
             const Vec3d o = vec(rays[i].origin_km), d = vec(rays[i].direction);
@@ -183,22 +191,23 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
                 if (!g) continue;
                 const double col = grid_column(*g, o, d, a_ext, b_ext);
                 for (int k = 0; k < 3; ++k)
-                    row.tau_vdb[k] += (L.constituents[c].scattering_rgb[k] + L.constituents[c].absorption_rgb[k]) * col;
+                    tau[i][k] += (L.constituents[c].scattering_rgb[k] + L.constituents[c].absorption_rgb[k]) * col;
             }
-            row.tau_ref = tau_ref[i];
-            for (int k = 0; k < 3; ++k) {
-                if (row.tau_ref[k] > 0)
-                    row.tau_rel_error_max =
-                        std::max(row.tau_rel_error_max, std::abs(row.tau_vdb[k] - row.tau_ref[k]) / row.tau_ref[k]);
-                row.transmittance_abs_error_max = std::max(row.transmittance_abs_error_max,
-                                                           std::abs(std::exp(-row.tau_vdb[k]) - std::exp(-row.tau_ref[k])));
-            }
-            result.rays.push_back(row);
         }
-        // Costs: the slab as built, and written; then the Earth view region.
+        return tau;
+    };
+    auto rel_error = [](const std::array<double, 3>& got, const std::array<double, 3>& ref) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k)
+            if (ref[k] > 0) e = std::max(e, std::abs(got[k] - ref[k]) / ref[k]);
+        return e;
+    };
+    // Costs: the slab as built and written, then the Earth view region, at voxel v and tolerance tol.
+    auto costs_of = [&](double v, double tol, std::vector<VdbTradeCostRow>& out) {
         auto cost_of = [&](const std::string& region, const VdbOptions& o, const Scene& s) {
             VdbTradeCostRow c;
             c.voxel_size = v;
+            c.tolerance = tol;
             c.region = region;
             try {
                 const VdbStats st = timed_write(s, o, scratch, options.cancel);
@@ -213,21 +222,83 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
                 c.refused = true;
                 c.note = e.what();
             }
-            result.costs.push_back(c);
+            out.push_back(c);
         };
-        cost_of("slab", slab, scene);
+        VdbOptions box = slab;
+        box.voxel_size = v;
+        box.tolerance = tol;
+        cost_of("slab", box, scene);
         if (options.measure_view_region) {
             Scene s = scene;
             s.camera = Camera{};
             VdbOptions view;
             view.region = VdbRegion::view;
             view.voxel_size = v;
-            view.tolerance = options.tolerance;
+            view.tolerance = tol;
             view.max_dense_mb = 1e9;
             view.max_memory_mb = 8192;
             cost_of("view-200km", view, s);
         }
-        if (options.progress) options.progress(double(vi + 1) / double(options.voxel_sizes.size()));
+    };
+    const std::size_t steps = options.voxel_sizes.size() + (tolerances.empty() ? 0 : tolerances.size());
+    std::size_t done = 0;
+    auto step_done = [&] {
+        if (options.progress) options.progress(double(++done) / double(steps));
+    };
+    VdbRunOptions run;
+    run.cancel = options.cancel;
+
+    for (const double v : options.voxel_sizes) {
+        if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
+        slab.voxel_size = v;
+        const VdbVolume vol = build_vdb_volume(scene, slab, run);
+        const auto tau = slab_tau(vol, v);
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            VdbTradeRayRow row;
+            row.voxel_size = v;
+            row.ray = rays[i].name;
+            row.tau_vdb = tau[i];
+            row.tau_ref = tau_ref[i];
+            row.tau_rel_error_max = rel_error(row.tau_vdb, row.tau_ref);
+            for (int k = 0; k < 3; ++k)
+                row.transmittance_abs_error_max = std::max(row.transmittance_abs_error_max,
+                                                           std::abs(std::exp(-row.tau_vdb[k]) - std::exp(-row.tau_ref[k])));
+            result.rays.push_back(row);
+        }
+        costs_of(v, options.tolerance, result.costs);
+        step_done();
+    }
+
+    // The threshold's trade: the same slab on one lattice for each tolerance, 0 first.
+    if (!tolerances.empty()) {
+        const double v = options.tolerance_voxel_size;
+        result.tolerance_voxel_size = v;
+        std::vector<std::array<double, 3>> keep_all;
+        for (const double tol : tolerances) {
+            if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
+            VdbOptions o = slab;
+            o.voxel_size = v;
+            o.tolerance = tol;
+            const VdbVolume vol = build_vdb_volume(scene, o, run);
+            const auto tau = slab_tau(vol, v);
+            if (tol == 0.0) {
+                keep_all = tau;
+                result.constituents = std::size_t(
+                    std::count_if(vol.tiles[0].grids.begin(), vol.tiles[0].grids.end(), [](const auto& g) { return bool(g); }));
+            }
+            for (std::size_t i = 0; i < rays.size(); ++i) {
+                VdbToleranceRayRow row;
+                row.tolerance = tol;
+                row.ray = rays[i].name;
+                row.tau_vdb = tau[i];
+                row.tau_removed_max = -std::numeric_limits<double>::infinity();
+                for (int k = 0; k < 3; ++k) row.tau_removed_max = std::max(row.tau_removed_max, keep_all[i][k] - tau[i][k]);
+                row.tau_rel_error_max = rel_error(tau[i], tau_ref[i]);
+                result.tolerance_rays.push_back(row);
+            }
+            costs_of(v, tol, result.tolerance_costs);
+            step_done();
+        }
     }
     return result;
 }

@@ -14,6 +14,11 @@
 //
 // Cost: per voxel size, the slab and the Earth view region of the issue (ground
 // camera, +X, 60°, 640×360, 200 km) are built and written to a scratch file.
+//
+// The activity threshold (--tolerance): at one voxel size, the same rays and regions for
+// each tolerance. What the inactive cells remove is |τ(tolerance) − τ(0)| through grids on
+// the same lattice (the voxel size's own error cancels), against its bound: `tolerance`
+// per constituent (VdbOptions::tolerance).
 #pragma once
 
 #include <array>
@@ -39,6 +44,10 @@ struct VdbTradeOptions {
     std::vector<double> voxel_sizes{0.25, 0.5, 1, 2, 4, 8};  // km
     double tolerance = VdbOptions{}.tolerance;
     bool measure_view_region = true;      // build and write the Earth view region per voxel size
+    // The threshold's trade: tolerances (optical depth, ≥ 0; 0 is the baseline and is measured
+    // whether listed or not), at one voxel size (km). Empty: not measured.
+    std::vector<double> tolerances{1e-6, 1e-5, 1e-4, 1e-3, 1e-2};
+    double tolerance_voxel_size = 1.0;
     std::filesystem::path scratch_dir;    // for the timed writes (empty: the system temp dir)
     VdbProgress progress;                  // fraction of voxel sizes done
     const CancelFlag* cancel = nullptr;
@@ -54,6 +63,7 @@ struct VdbTradeRayRow {
 
 struct VdbTradeCostRow {
     double voxel_size = 0;  // km
+    double tolerance = 0;   // VdbOptions::tolerance of the build
     std::string region;     // "slab" or "view-200km"
     bool refused = false;   // the exporter refused (limit); message in `note`
     std::string note;
@@ -62,16 +72,34 @@ struct VdbTradeCostRow {
     double build_seconds = 0, write_seconds = 0;
 };
 
+struct VdbToleranceRayRow {
+    double tolerance = 0;  // optical depth
+    std::string ray;
+    std::array<double, 3> tau_vdb{};  // RGB optical depth through the grids at this tolerance
+    double tau_removed_max = 0;       // max over RGB of τ(0) − τ(tolerance): what the inactive cells remove
+    double tau_rel_error_max = 0;     // against the analytic value (the voxel size's error included)
+};
+
 struct VdbTradeResult {
     std::vector<VdbTradeRayRow> rays;    // voxel-size major, rays in vdb_trade_rays order
     std::vector<VdbTradeCostRow> costs;  // voxel-size major
+    // The threshold's trade at options.tolerance_voxel_size: tolerance 0 first, then ascending.
+    double tolerance_voxel_size = 0;  // km
+    std::size_t constituents = 0;     // with a grid: the bound is tolerance × this
+    std::vector<VdbToleranceRayRow> tolerance_rays;    // tolerance major
+    std::vector<VdbTradeCostRow> tolerance_costs;      // tolerance major
 };
 
 VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options);
 
-// vdb_trade_rays.csv, vdb_trade_costs.csv and the Markdown tables of docs/vdb.md.
+// vdb_trade_rays.csv, vdb_trade_costs.csv and the Markdown tables of docs/vdb.md; the
+// threshold's: vdb_tolerance_rays.csv, vdb_tolerance_costs.csv and their Markdown (empty when
+// not measured).
 std::string vdb_trade_rays_csv(const VdbTradeResult& r);
 std::string vdb_trade_costs_csv(const VdbTradeResult& r);
 std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene_name);
+std::string vdb_tolerance_rays_csv(const VdbTradeResult& r);
+std::string vdb_tolerance_costs_csv(const VdbTradeResult& r);
+std::string vdb_tolerance_markdown(const VdbTradeResult& r, const std::string& scene_name);
 
 }  // namespace airmass
