@@ -10,7 +10,8 @@ pixels (the red channel, float) as a .npy file.
 jobs.json: {"camera": {"center": [x, y, z], "scale": s, "pixels": n}, "grid": name,
             "samples": n, "step": world-space ray-marching step, "names": "v0_{k}" (the Volume
             names, k = the file's index in "files"),
-            "renders": [{"files": [...], "seed": k, "out": "x.npy"}, ...]}
+            "renders": [{"files": [...], "seed": k, "out": "x.npy", "names": [...] (optional: these
+            names instead)}, ...]}
 Each render also writes <out>.names.json: the names and Cycles' face offsets (below) per file.
 """
 import argparse
@@ -120,7 +121,7 @@ for r_i, job in enumerate(jobs["renders"]):
         bpy.data.objects.remove(ob, do_unlink=True)
     for vol in list(bpy.data.volumes):  # else a name in use gets ".001" (another Cycles hash)
         bpy.data.volumes.remove(vol)
-    names = [jobs.get("names", "v%d_{k}" % r_i).format(k=k) for k in range(len(job["files"]))]
+    names = job.get("names") or [jobs.get("names", "v%d_{k}" % r_i).format(k=k) for k in range(len(job["files"]))]
     with open(job["out"] + ".names.json", "w") as f:
         json.dump({"names": names, "face_offsets": face_offsets(job["files"], jobs["grid"], names)}, f)
     for i, path in enumerate(job["files"]):
