@@ -2,8 +2,9 @@
 // seen from orbit in one box costs its whole empty interior. Splitting the grids into
 // tiles (a regular lattice of cubes, aligned to blocks) and keeping only the tiles that
 // hold active voxels, each with its own tight boxes, removes that waste. Tiles partition
-// the voxels and share one transform: trilinear interpolation is linear in the voxel
-// values, so the sum of the tiles renders like the single grid.
+// the voxels and share one world lattice of voxel centres (each on its own index lattice,
+// shifted by whole voxels: VolumePlan::index_offset): trilinear interpolation is linear in
+// the voxel values, so the sum of the tiles renders like the single grid.
 #include <algorithm>
 #include <chrono>
 #include <map>
