@@ -305,6 +305,29 @@ TEST(Vdb, ViewFromOrbitSkipsThePlanetsHiddenSide) {
     EXPECT_GT(n, 100u);
 }
 
+namespace {
+
+// A tiled grid on the common lattice: its voxel q is voxel q + o there (o: the tile's index
+// offset, VolumePlan::index_offset). Checks first that the grid's transform puts voxel q where
+// the common transform (`common`) puts q + o, and that its metadata records o.
+openvdb::FloatGrid::Ptr to_common_lattice(const openvdb::FloatGrid& g, const VoxelCoord& o,
+                                          const openvdb::math::Transform& common) {
+    const Coord d(o[0], o[1], o[2]);
+    if (o != VoxelCoord{0, 0, 0}) {
+        EXPECT_EQ(g.metaValue<openvdb::Vec3i>("airmass:index_offset"), openvdb::Vec3i(o[0], o[1], o[2]));
+    }
+    for (const Coord q : {Coord(0, 0, 0), Coord(-37, 5, 1001), Coord(8, -8, 7)}) {
+        const Vec3d a = g.indexToWorld(q), b = common.indexToWorld(q + d);
+        EXPECT_NEAR((a - b).length(), 0.0, 1e-12 * (1.0 + b.length())) << q;
+    }
+    auto out = openvdb::FloatGrid::create(0.0f);
+    auto acc = out->getAccessor();
+    for (auto it = g.cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() + d, *it);
+    return out;
+}
+
+}  // namespace
+
 TEST(Vdb, TilesPartitionTheVoxelsOfTheSingleGrid) {
     const Scene scene = load_preset("earth");
     VdbOptions o;
@@ -335,8 +358,13 @@ TEST(Vdb, TilesPartitionTheVoxelsOfTheSingleGrid) {
         for (std::size_t t = 0; t < tiled.tiles; ++t) {
             const ReadBack rb = read_vdb(tiled.files[t]);
             if (!rb.grids.count(name)) continue;
-            const auto& g = rb.grids.at(name);
-            EXPECT_EQ(g->metaValue<int>("airmass:tile"), int(t));
+            // On the common lattice (the manifest's boxes): the file's grid is on the tile's own.
+            const auto& file_grid = rb.grids.at(name);
+            EXPECT_EQ(file_grid->metaValue<int>("airmass:tile"), int(t));
+            const auto& mo = manifest["tiles"][t]["index_offset"];
+            const VoxelCoord offset{mo[0].get<int>(), mo[1].get<int>(), mo[2].get<int>()};
+            EXPECT_EQ(offset, tiled.index_offsets.at(t));
+            const auto g = to_common_lattice(*file_grid, offset, one.tiles[0].grids[c]->transform());
             auto ref = one.tiles[0].grids[c]->getConstAccessor();
             // Guard voxels (kVolumeGuardValue): the single grid's active voxels just outside this
             // tile's values (26 neighbours), inside the plan's dense box; not counted as values.
@@ -375,6 +403,63 @@ TEST(Vdb, TilesPartitionTheVoxelsOfTheSingleGrid) {
         }
         EXPECT_EQ(seen->activeVoxelCount(), one.tiles[0].grids[c]->activeVoxelCount());
     }
+}
+
+// Cycles before Blender 5.0 bounds each Volume object by a mesh on its grid's 8³ leaf
+// boundaries, and loses one of two tiles where their meshes' faces coincide (docs/vdb.md
+// "Tiling"). Each tile's grids are on a lattice shifted by its index offset: in world space, the
+// leaf boundaries of tiles whose lattice cubes touch (26 neighbours) lie on different planes on
+// every axis, while every voxel keeps its world position (TilesPartitionTheVoxelsOfTheSingleGrid).
+TEST(Vdb, NeighbouringTilesLeafBoundariesDifferOnEveryAxis) {
+    const Scene scene = load_preset("earth");
+    VdbOptions o;
+    o.region = VdbRegion::planet;
+    o.voxel_size = 50.0;
+    o.tile_voxels = 64;
+    const VdbVolume vol = build_vdb_volume(scene, o);
+    const std::size_t n = vol.tiles.size();
+    ASSERT_GT(n, 8u);
+    const auto common = openvdb::math::Transform::createLinearTransform(vol.layout.voxel_size);
+    const int T = vol.plan.tiling.tile_voxels;
+    ASSERT_EQ(T, 64);
+    // Per tile: its leaves' origins on the common lattice, mod 8 (all the same), and its cube.
+    std::vector<VoxelCoord> residue(n), cube(n);
+    for (std::size_t t = 0; t < n; ++t) {
+        bool first = true;
+        for (const auto& g : vol.tiles[t].grids) {
+            if (!g) continue;
+            for (auto leaf = g->tree().cbeginLeaf(); leaf; ++leaf) {
+                const Vec3d w = g->indexToWorld(leaf->origin());  // world space
+                const Vec3d i = common->worldToIndex(w);
+                VoxelCoord r{};
+                for (int a = 0; a < 3; ++a) {
+                    const double k = std::round(i[a]);
+                    ASSERT_NEAR(i[a], k, 1e-6) << "a leaf origin off the common lattice";
+                    r[a] = int(((long long)k % 8 + 8) % 8);
+                }
+                if (first) residue[t] = r, first = false;
+                ASSERT_EQ(r, residue[t]) << "tile " << t << ": leaves on different lattices";
+            }
+        }
+        ASSERT_FALSE(first) << "tile " << t << " has no leaf";
+        const auto s = std::find_if(vol.stats.grids.begin(), vol.stats.grids.end(),
+                                    [&](const VdbGridStats& g) { return g.tile == t; });
+        for (int a = 0; a < 3; ++a) cube[t][a] = (s->bbox[a] - vol.plan.tiling.base[a]) / T;
+    }
+    std::size_t pairs = 0, faces = 0;
+    for (std::size_t t = 0; t < n; ++t)
+        for (std::size_t u = t + 1; u < n; ++u) {
+            int far = 0, same = 0;
+            for (int a = 0; a < 3; ++a) far = std::max(far, std::abs(cube[t][a] - cube[u][a]));
+            if (far != 1) continue;
+            ++pairs;
+            for (int a = 0; a < 3; ++a) same += cube[t][a] == cube[u][a];
+            faces += same == 2;
+            for (int a = 0; a < 3; ++a)
+                EXPECT_NE(residue[t][a], residue[u][a]) << "tiles " << t << " and " << u << ", axis " << a;
+        }
+    EXPECT_GT(pairs, n);
+    EXPECT_GT(faces, n / 2);
 }
 
 TEST(Vdb, AutomaticTilingSkipsTheEmptyInteriorOfTheShell) {
@@ -780,7 +865,14 @@ TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
         const VoxelBox box = box_of(pg);
         // The file's grid = the values + guard voxels (several tiles only: docs/vdb.md "Tiling"),
         // all within the plan's dense box; the rest compares the values.
-        const auto g = vol.tiles[pg.tile].grids[c]->deepCopy();
+        // In the common lattice (the plan's boxes): the tile's grid is on its own, shifted one.
+        const VoxelCoord offset = plan.index_offset(pg.tile);
+        if (GetParam() != LayerCase::tiled) {
+            EXPECT_EQ(offset, (VoxelCoord{0, 0, 0}));
+        }
+        EXPECT_EQ(vol.plan.index_offset(pg.tile), offset);
+        const auto g = to_common_lattice(*vol.tiles[pg.tile].grids[c], offset,
+                                         *openvdb::math::Transform::createLinearTransform(layout.voxel_size));
         std::uint64_t guards = 0;
         for (auto it = g->beginValueOn(); it; ++it) {
             const Coord q = it.getCoord();
@@ -800,16 +892,19 @@ TEST_P(VdbVolumeLayer, DenseBlocksEqualTheWriterGridsVoxelForVoxel) {
         guards_seen += guards;
         ASSERT_TRUE(bounds.contains(box));
         // The metadata the plan carries is the grid's, key for key and type for type.
-        for (const auto& m : volume_grid_metadata(layout, c, pg.tile, plan.stats.tiles)) {
-            const auto meta = (*g)[m.key];
+        const auto& written = *vol.tiles[pg.tile].grids[c];
+        for (const auto& m : volume_grid_metadata(layout, c, pg.tile, plan.stats.tiles, offset)) {
+            const auto meta = written[m.key];
             ASSERT_TRUE(meta) << m.key;
             std::visit(
                 [&](const auto& v) {
                     using T = std::decay_t<decltype(v)>;
                     if constexpr (std::is_same_v<T, std::array<double, 3>>) {
-                        EXPECT_EQ(g->metaValue<Vec3d>(m.key), Vec3d(v[0], v[1], v[2])) << m.key;
+                        EXPECT_EQ(written.metaValue<Vec3d>(m.key), Vec3d(v[0], v[1], v[2])) << m.key;
+                    } else if constexpr (std::is_same_v<T, std::array<std::int32_t, 3>>) {
+                        EXPECT_EQ(written.metaValue<openvdb::Vec3i>(m.key), openvdb::Vec3i(v[0], v[1], v[2])) << m.key;
                     } else {
-                        EXPECT_EQ(g->metaValue<T>(m.key), v) << m.key;
+                        EXPECT_EQ(written.metaValue<T>(m.key), v) << m.key;
                     }
                 },
                 m.value);

@@ -78,16 +78,17 @@ def temporary_path(dest):
     return os.path.join(folder, ".%s.airmass-tmp-%d-%d%s" % (stem, os.getpid(), next(_counter), ext))
 
 
-def slabs(bbox_min, bbox_max, max_floats=BLOCK_FLOATS):
-    """Index boxes splitting [bbox_min, bbox_max] along i at multiples of 8 (OpenVDB's leaves
-    stay whole), each of at most max_floats voxels unless a single 8-voxel layer is larger."""
+def slabs(bbox_min, bbox_max, max_floats=BLOCK_FLOATS, offset=0):
+    """Index boxes splitting [bbox_min, bbox_max] along i at multiples of 8 plus `offset` (the
+    grid's index offset along i: its OpenVDB leaves stay whole), each of at most max_floats voxels
+    unless a single 8-voxel layer is larger."""
     ny = bbox_max[1] - bbox_min[1] + 1
     nz = bbox_max[2] - bbox_min[2] + 1
     layers = max(1, max_floats // max(1, ny * nz * 8))  # 8-voxel layers per slab
     out = []
     i = bbox_min[0]
     while i <= bbox_max[0]:
-        end = min(bbox_max[0], (i // 8 + layers) * 8 - 1)
+        end = min(bbox_max[0], ((i - offset) // 8 + layers) * 8 - 1 + offset)
         out.append(((i, bbox_min[1], bbox_min[2]), (end, bbox_max[1], bbox_max[2])))
         i = end + 1
     return out
@@ -103,6 +104,8 @@ def meta_value(value, kind):
         return int(value)
     if kind == "vec3d":
         return tuple(float(x) for x in value)
+    if kind == "vec3i":
+        return tuple(int(x) for x in value)
     raise ValueError("unknown metadata type %r" % kind)
 
 
@@ -240,7 +243,11 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
     the next block are seen."""
     g = vdb.FloatGrid(0.0)
     g.name = grid["name"]
-    g.transform = make_transform(vdb, plan["transform"])
+    # The tile's own lattice (docs/vdb.md "Tiling"): the plan's boxes are in the common lattice;
+    # this grid's voxel (i, j, k) is common voxel (i, j, k) + index_offset, and its transform (the
+    # file's) translates by index_offset voxels. Absent, or (0, 0, 0), for a single tile.
+    offset = [int(x) for x in grid.get("index_offset", (0, 0, 0))]
+    g.transform = make_transform(vdb, plan["files"][grid["tile"]].get("transform", plan["transform"]))
     g.gridClass = vdb.GridClass.FOG_VOLUME
     if str(g.gridClass) != plan["grid_class"]:
         raise RuntimeError("this OpenVDB names the fog volume class %r, the plan %r" % (g.gridClass, plan["grid_class"]))
@@ -250,7 +257,7 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
     box_min = grid.get("dense_bbox_min", grid["bbox_min"]) if cube else grid["bbox_min"]
     box_max = grid.get("dense_bbox_max", grid["bbox_max"]) if cube else grid["bbox_max"]
     guards = 0
-    for lo, hi in slabs(box_min, box_max):
+    for lo, hi in slabs(box_min, box_max, offset=offset[0]):
         n = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1)
         start = PLAN_SHARE + (1.0 - PLAN_SHARE) * done / total
         end = PLAN_SHARE + (1.0 - PLAN_SHARE) * (done + n) / total
@@ -267,7 +274,7 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
             values = tiled[lo[0] - flo[0]:hi[0] - flo[0] + 1].copy()
             guards += int((values == tiled.dtype.type(plan["guard_value"])).sum())
             del fetched, tiled
-        g.copyFromArray(values, ijk=tuple(int(x) for x in lo), tolerance=0.0)
+        g.copyFromArray(values, ijk=tuple(int(x) - o for x, o in zip(lo, offset)), tolerance=0.0)
         del values
         done += n
         reporter.at(end)

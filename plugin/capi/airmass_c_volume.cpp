@@ -60,7 +60,7 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
     const double v = L.voxel_size;
     json j;
     j["format"] = "airmass-vdb-plan";
-    j["format_version"] = 1;
+    j["format_version"] = 2;  // 2: per-file index_offset and transform (tiles on shifted lattices)
     j["unit"] = std::string(airmass::length_unit_name(L.options.unit));
     j["region"] = std::string(airmass::region_name(L.options.region));
     j["voxel_size"] = v;
@@ -79,6 +79,14 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
     j["request_bounds"] = {{"min", ints(rb.min)}, {"max", ints(rb.max)}};
     j["tile_count"] = s.tiles;
     j["tiling"] = {{"tile_voxels", plan.tiling.tile_voxels}, {"base", ints(plan.tiling.base)}};
+    // Index spaces: every bbox_min/bbox_max/dense_bbox_* below and "request_bounds" are in the common
+    // lattice of "transform". File t's grids are on the tile's own lattice: their voxel (i, j, k) is
+    // common voxel (i, j, k) + files[t].index_offset, and their transform is files[t].transform (the
+    // common one translated by index_offset voxels): the same world positions, leaves shifted
+    // (docs/vdb.md "Tiling").
+    j["index_space"] =
+        "bboxes and request_bounds: the common lattice of transform; file t's grids: voxel (i, j, k) is common voxel "
+        "(i, j, k) + files[t].index_offset, their transform files[t].transform";
     // Guards (several tiles only): each tile's grid also holds, at this value, the active voxels
     // of the other tiles within one voxel (26 neighbours) of its values (docs/vdb.md "Tiling").
     j["guard_value"] = airmass::kVolumeGuardValue;
@@ -86,7 +94,15 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
     json grids = json::array();
     json files = json::array();
     for (std::size_t t = 0; t < s.tiles; ++t) {
-        json f{{"name", names[t]}, {"tile", t}, {"grids", json::array()}};
+        const airmass::VoxelCoord o = plan.index_offset(t);
+        json f{{"name", names[t]},
+               {"tile", t},
+               {"index_offset", ints(o)},
+               {"transform",
+                {{"voxel_size", {v, v, v}},
+                 {"translation", {o[0] * v, o[1] * v, o[2] * v}},
+                 {"matrix", {{v, 0.0, 0.0, 0.0}, {0.0, v, 0.0, 0.0}, {0.0, 0.0, v, 0.0}, {o[0] * v, o[1] * v, o[2] * v, 1.0}}}}},
+               {"grids", json::array()}};
         put_metadata(f, airmass::volume_file_metadata(L, t, s.tiles));
         files.push_back(std::move(f));
     }
@@ -104,7 +120,8 @@ std::string plan_json(const airmass::VolumePlan& plan, const std::string& stem) 
                {"dense_voxels", g.dense_voxels},
                {"dense_bytes", g.dense_voxels * sizeof(float)},
                {"memory_bytes_estimate", g.memory_bytes}};
-        put_metadata(e, airmass::volume_grid_metadata(L, plan.grid_constituent[i], g.tile, s.tiles));
+        e["index_offset"] = ints(plan.index_offset(g.tile));
+        put_metadata(e, airmass::volume_grid_metadata(L, plan.grid_constituent[i], g.tile, s.tiles, plan.index_offset(g.tile)));
         files[g.tile]["grids"].push_back(i);
         grids.push_back(std::move(e));
     }

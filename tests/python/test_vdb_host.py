@@ -123,6 +123,8 @@ def same_metadata(a, b, what):
     assert set(a) == set(b), f"{what}: keys {sorted(set(a) ^ set(b))}"
     for k in a:
         assert type(a[k]) is type(b[k]), f"{what} {k}: {type(a[k]).__name__} vs {type(b[k]).__name__}"
+        if isinstance(a[k], tuple):  # Vec3i (airmass:index_offset) vs Vec3d metadata
+            assert [type(x) for x in a[k]] == [type(x) for x in b[k]], f"{what} {k}: {a[k]!r} vs {b[k]!r}"
         assert a[k] == b[k], f"{what} {k}: {a[k]!r} vs {b[k]!r}"
 
 

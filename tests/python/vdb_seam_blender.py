@@ -7,9 +7,12 @@ pixels (the red channel, float) as a .npy file.
     blender -b --factory-startup --python-exit-code 1 --python vdb_seam_blender.py -- \\
         --jobs jobs.json
 
-jobs.json ("separate_names": true picks names whose Cycles face offsets differ, below):
-           {"camera": {"center": [x, y, z], "scale": s, "pixels": n}, "grid": name,
-            "samples": n, "step": world-space ray-marching step, "renders": [{"files": [...], "seed": k, "out": "x.npy"}, ...]}
+jobs.json: {"camera": {"center": [x, y, z], "scale": s, "pixels": n}, "grid": name,
+            "samples": n, "step": world-space ray-marching step, "names": "v0_{k}" (the Volume
+            names, k = the file's index in "files"),
+            "renders": [{"files": [...], "seed": k, "out": "x.npy", "names": [...] (optional: these
+            names instead)}, ...]}
+Each render also writes <out>.names.json: the names and Cycles' face offsets (below) per file.
 """
 import argparse
 import json
@@ -77,10 +80,10 @@ nt.links.new(em.outputs["Emission"], out.inputs["Volume"])
 
 # Cycles before 5.0 shifts each volume's mesh by (0.1 * hash(name) / dim) object units per axis
 # (dim: the padded topology's voxels; scene/volume.cpp, face_overlap_avoidance) so that the
-# coincident faces of overlapping volumes differ. When two tiles' shifts agree to a few float
-# ulps along an axis, one of them is missed where their faces meet and its whole contribution
-# along those rays is lost. Names are chosen so that every axis's shifts differ by > SEPARATION.
-SEPARATION = 1e-5
+# coincident faces of overlapping volumes differ. Where two tiles' meshes had coplanar faces and
+# their shifts agreed to a few float ulps, one tile was missed along those rays (docs/vdb.md
+# "Tiling"); tiles now sit on shifted index lattices so that neighbours' faces are >= 1 voxel
+# apart, whatever the names. The names are given (jobs["names"]); the offsets are reported.
 M32 = 0xFFFFFFFF
 
 
@@ -101,21 +104,16 @@ def cycles_name_hash(name):
     return float(np.float32(c) / np.float32(4294967295.0))
 
 
-def separated_names(files, grid_name, prefix):
+def face_offsets(files, grid_name, names):
+    """Cycles' face_overlap_avoidance offset per file and axis, for the report."""
     import pyopenvdb as vdb
-    shifts, names = [], []
-    for k, path in enumerate(files):
+    out = []
+    for path, name in zip(files, names):
         g = vdb.read(path, grid_name)
         lo, hi = g.evalActiveVoxelBoundingBox()
         dim = np.array(hi) - np.array(lo) + 1 + 2  # padded by one voxel each side
-        for attempt in range(100000):
-            name = "%s%d_%d" % (prefix, k, attempt)
-            sh = 0.1 * cycles_name_hash(name) / dim
-            if all(np.min(np.abs(sh - o)) > SEPARATION for o in shifts):
-                break
-        shifts.append(sh)
-        names.append(name)
-    return names
+        out.append([float(x) for x in 0.1 * cycles_name_hash(name) / dim])
+    return out
 
 
 for r_i, job in enumerate(jobs["renders"]):
@@ -123,9 +121,9 @@ for r_i, job in enumerate(jobs["renders"]):
         bpy.data.objects.remove(ob, do_unlink=True)
     for vol in list(bpy.data.volumes):  # else a name in use gets ".001" (another Cycles hash)
         bpy.data.volumes.remove(vol)
-    prefix = os.environ.get("SEAM_NAME", "v")
-    names = (separated_names(job["files"], jobs["grid"], prefix) if jobs.get("separate_names")
-             else [prefix + "%d_%d" % (r_i, k) for k in jobs.get("names", range(len(job["files"])))])
+    names = job.get("names") or [jobs.get("names", "v%d_{k}" % r_i).format(k=k) for k in range(len(job["files"]))]
+    with open(job["out"] + ".names.json", "w") as f:
+        json.dump({"names": names, "face_offsets": face_offsets(job["files"], jobs["grid"], names)}, f)
     for i, path in enumerate(job["files"]):
         vol = bpy.data.volumes.new(names[i])
         assert vol.name == names[i], (vol.name, names[i])

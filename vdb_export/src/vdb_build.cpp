@@ -77,6 +77,27 @@ void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& pl
     }
 }
 
+// Moves tile t's grids onto its own index lattice (VolumePlan::index_offset o; docs/vdb.md
+// "Tiling"): voxel p of the common lattice becomes voxel p - o, and the transform gains a
+// translation by o voxels, so that every voxel keeps its world position and value while the
+// tile's 8³ leaves are shifted against its neighbours'. The transform is built from the matrix
+// the plan JSON gives hosts (createLinearTransform(Mat4d): a UniformScaleTranslateMap, as the
+// host path's createLinearTransform(matrix) makes it).
+void shift_tile(VdbTile& tile, const VoxelCoord& o, double voxel_size) {
+    if (o == VoxelCoord{0, 0, 0}) return;
+    const double v = voxel_size;
+    const openvdb::Mat4d m(v, 0.0, 0.0, 0.0, 0.0, v, 0.0, 0.0, 0.0, 0.0, v, 0.0, o[0] * v, o[1] * v, o[2] * v, 1.0);
+    const openvdb::Coord d(o[0], o[1], o[2]);
+    for (auto& g : tile.grids) {
+        if (!g) continue;
+        auto tree = std::make_shared<openvdb::FloatTree>(0.0f);
+        openvdb::tree::ValueAccessor<openvdb::FloatTree> acc(*tree);
+        for (auto it = g->tree().cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() - d, *it);
+        g->setTree(tree);
+        g->setTransform(openvdb::math::Transform::createLinearTransform(m));
+    }
+}
+
 }  // namespace
 
 VdbVolume build_vdb_volume(const Scene& scene, const VdbOptions& options, const VdbRunOptions& run) {
@@ -151,6 +172,7 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
                 if (const auto& g = volume.tiles[t].grids[c])
                     values_of[t * nc + c] = {g->activeVoxelCount(), g->evalActiveVoxelBoundingBox()};
         for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan);
+        for (std::size_t t = 0; t < n_tiles; ++t) shift_tile(volume.tiles[t], plan.index_offset(t), layout.voxel_size);
     }
     grids.clear();
 
@@ -163,10 +185,12 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
         for (std::size_t c = 0; c < nc; ++c) {
             const auto& g = volume.tiles[t].grids[c];
             if (!g) continue;
-            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size()));
+            const VoxelCoord o = plan.index_offset(t);
+            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size(), o));
             if (gi >= s.grids.size()) throw std::logic_error("vdb_export: more grids than the volume plan lists");
             VdbGridStats& gs = s.grids[gi++];
-            const openvdb::CoordBBox all = g->evalActiveVoxelBoundingBox();
+            openvdb::CoordBBox all = g->evalActiveVoxelBoundingBox();  // in the tile's lattice
+            all.translate(openvdb::Coord(o[0], o[1], o[2]));
             const auto [active, bb] = values_of.empty() ? std::make_pair(g->activeVoxelCount(), all) : values_of[t * nc + c];
             const std::array<std::int32_t, 6> box{bb.min().x(), bb.min().y(), bb.min().z(),
                                                   bb.max().x(), bb.max().y(), bb.max().z()};

@@ -14,7 +14,9 @@ void insert_metadata(openvdb::MetaMap& m, const std::vector<VolumeMetadatum>& en
                 if constexpr (std::is_same_v<T, std::string>) m.insertMeta(e.key, openvdb::StringMetadata(v));
                 else if constexpr (std::is_same_v<T, double>) m.insertMeta(e.key, openvdb::DoubleMetadata(v));
                 else if constexpr (std::is_same_v<T, std::int32_t>) m.insertMeta(e.key, openvdb::Int32Metadata(v));
-                else m.insertMeta(e.key, openvdb::Vec3DMetadata(openvdb::Vec3d(v[0], v[1], v[2])));
+                else if constexpr (std::is_same_v<T, std::array<double, 3>>)
+                    m.insertMeta(e.key, openvdb::Vec3DMetadata(openvdb::Vec3d(v[0], v[1], v[2])));
+                else m.insertMeta(e.key, openvdb::Vec3IMetadata(openvdb::Vec3i(v[0], v[1], v[2])));
             },
             e.value);
     }

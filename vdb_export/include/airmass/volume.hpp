@@ -184,13 +184,15 @@ struct VdbGridStats {
     std::string name;
     std::size_t tile = 0;
     std::uint64_t active_voxels = 0;
-    std::array<std::int32_t, 6> bbox{};  // the values' index bounding box, min then max (inclusive)
+    // The values' index bounding box, min then max (inclusive), in the common lattice: the
+    // tile's grid holds them at bbox - its index offset (VolumePlan::index_offset).
+    std::array<std::int32_t, 6> bbox{};
     // The box with the tile's guard voxels (kVolumeGuardValue, at the other tiles' values next
     // to this tile's; docs/vdb.md "Tiling"): what Blender 3.4 densifies. A plan bounds it from
-    // the leaves' boxes; equal to bbox for a single tile.
+    // the leaves' boxes; equal to bbox for a single tile. Common lattice, as bbox.
     std::array<std::int32_t, 6> dense_bbox{};
     std::uint64_t dense_voxels = 0;      // dense_bbox volume
-    std::uint64_t memory_bytes = 0;      // OpenVDB tree in memory (a plan estimates it from its leaves)
+    std::uint64_t memory_bytes = 0;      // OpenVDB tree in memory (a plan estimates it from its values' leaves)
 };
 
 struct VdbStats {
@@ -198,6 +200,7 @@ struct VdbStats {
     LengthUnit unit = LengthUnit::km;
     std::size_t tiles = 0;
     std::vector<VdbGridStats> grids;  // tile-major, constituents in layout order; empty grids omitted
+    std::vector<VoxelCoord> index_offsets;  // per tile: VolumePlan::index_offset (bboxes stay in the common lattice)
     std::uint64_t active_voxels = 0;  // summed over grids
     std::uint64_t memory_bytes = 0;
     std::uint64_t dense_bytes = 0;          // Σ dense_voxels · 4 with the chosen tiling
@@ -335,6 +338,15 @@ struct VolumePlan {
 
     // The tile holding the block at `origin` (a leaf of the sampling pass).
     std::size_t tile_of(const VoxelCoord& origin) const;
+    // Tile t's index offset o (docs/vdb.md "Tiling"): voxel (i, j, k) of the tile's grids is
+    // voxel (i, j, k) + o of the common lattice (the one every bbox of the plan, the stats and
+    // the manifest is in), and the tile's transform is the common one after a translation by
+    // o voxels, so every voxel keeps its world position and value. o = (c, c, c), c in 0..7 a
+    // colour of the tile's lattice cube, 4·(ci & 1) + 2·(cj & 1) + (ck & 1) for cube indices
+    // (ci, cj, ck): tiles whose cubes touch (26 neighbours) differ, so their 8³ leaves — and
+    // the faces of the meshes Cycles < 5.0 builds from them — lie on planes ≥ 1 voxel apart
+    // on every axis. (0, 0, 0) for a single tile.
+    VoxelCoord index_offset(std::size_t tile) const;
     // The tile whose cube holds the block at `origin`, or tiles() when no tile does (a block
     // outside the lattice or in a cube without active voxels).
     std::size_t find_tile(const VoxelCoord& origin) const;
@@ -368,21 +380,25 @@ void sample_volume_box(const VolumeSampler& sampler, std::size_t constituent, co
 // Version of the grid/metadata layout (airmass:format_version); bump on any change a
 // reader must know about.
 inline constexpr int kVdbFormatVersion = 1;
+// Version of the tiles manifest (<stem>.tiles.json); 2: per-tile index_offset and index_space.
+inline constexpr int kVdbTilesManifestVersion = 2;
 // The grid class of every grid (OpenVDB's GridBase::gridClassToString(GRID_FOG_VOLUME)).
 inline constexpr std::string_view kVolumeGridClass = "fog volume";
 
 // A metadata value: OpenVDB's StringMetadata, DoubleMetadata, Int32Metadata, Vec3DMetadata.
-using VolumeMetaValue = std::variant<std::string, double, std::int32_t, std::array<double, 3>>;
+// (and Vec3IMetadata for std::array<std::int32_t, 3>).
+using VolumeMetaValue = std::variant<std::string, double, std::int32_t, std::array<double, 3>, std::array<std::int32_t, 3>>;
 struct VolumeMetadatum {
     std::string key;
     VolumeMetaValue value;
 };
-std::string_view volume_meta_type(const VolumeMetaValue& v);  // "string", "double", "int32", "vec3d"
+std::string_view volume_meta_type(const VolumeMetaValue& v);  // "string", "double", "int32", "vec3d", "vec3i"
 
 // Every grid's metadata (docs/vdb.md, "Metadata"): the common keys plus the
-// constituent's profile, coefficients, phase and the tile it belongs to.
+// constituent's profile, coefficients, phase and the tile it belongs to; with several
+// tiles also the tile's airmass:index_offset (VolumePlan::index_offset).
 std::vector<VolumeMetadatum> volume_grid_metadata(const VdbLayout& layout, std::size_t constituent, std::size_t tile,
-                                                  std::size_t tile_count);
+                                                  std::size_t tile_count, const VoxelCoord& index_offset = {0, 0, 0});
 // A file's metadata: the common keys plus the scene (airmass:scene, JSON) and the tile.
 std::vector<VolumeMetadatum> volume_file_metadata(const VdbLayout& layout, std::size_t tile, std::size_t tile_count);
 

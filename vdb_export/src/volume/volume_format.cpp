@@ -75,7 +75,8 @@ std::string_view volume_meta_type(const VolumeMetaValue& v) {
         case 0: return "string";
         case 1: return "double";
         case 2: return "int32";
-        default: return "vec3d";
+        case 3: return "vec3d";
+        default: return "vec3i";
     }
 }
 
@@ -100,7 +101,7 @@ void add_common(std::vector<VolumeMetadatum>& m, const VdbLayout& layout) {
 }  // namespace
 
 std::vector<VolumeMetadatum> volume_grid_metadata(const VdbLayout& layout, std::size_t constituent, std::size_t tile,
-                                                  std::size_t tile_count) {
+                                                  std::size_t tile_count, const VoxelCoord& index_offset) {
     const VdbConstituent& c = layout.constituents.at(constituent);
     std::vector<VolumeMetadatum> m;
     add_common(m, layout);
@@ -114,6 +115,9 @@ std::vector<VolumeMetadatum> volume_grid_metadata(const VdbLayout& layout, std::
     m.push_back({"airmass:density_max", c.density_max});
     m.push_back({"airmass:tile", std::int32_t(tile)});
     m.push_back({"airmass:tile_count", std::int32_t(tile_count)});
+    // Several tiles: this grid's voxel (i, j, k) is voxel (i, j, k) + airmass:index_offset of the
+    // common lattice (the manifest's bboxes); its transform already includes the shift.
+    if (tile_count > 1) m.push_back({"airmass:index_offset", index_offset});
     return m;
 }
 
@@ -153,10 +157,17 @@ std::string volume_tiles_manifest(const VdbLayout& L, const VdbStats& stats, con
                                  {"bbox_min", {g.bbox[0], g.bbox[1], g.bbox[2]}},
                                  {"bbox_max", {g.bbox[3], g.bbox[4], g.bbox[5]}}};
         }
-        tiles.push_back(json{{"file", t < names.size() ? names[t] : std::string()}, {"grids", grids}});
+        const VoxelCoord o = t < stats.index_offsets.size() ? stats.index_offsets[t] : VoxelCoord{0, 0, 0};
+        tiles.push_back(json{{"file", t < names.size() ? names[t] : std::string()},
+                             {"index_offset", {o[0], o[1], o[2]}},
+                             {"grids", grids}});
     }
     json j{{"format", "airmass-vdb-tiles"},
-           {"format_version", kVdbFormatVersion},
+           {"format_version", kVdbTilesManifestVersion},
+           {"index_space",
+            "bbox_min/bbox_max (inclusive) are in the common lattice, world = voxel_size * (i, j, k); a tile's "
+            "grids hold voxel (i, j, k) of it at (i, j, k) - index_offset, with the translation "
+            "voxel_size * index_offset in their transforms"},
            {"length_unit", std::string(length_unit_name(L.options.unit))},
            {"voxel_size", L.voxel_size},
            {"planet_center", {L.planet_center.x, L.planet_center.y, L.planet_center.z}},

@@ -2,8 +2,9 @@
 // seen from orbit in one box costs its whole empty interior. Splitting the grids into
 // tiles (a regular lattice of cubes, aligned to blocks) and keeping only the tiles that
 // hold active voxels, each with its own tight boxes, removes that waste. Tiles partition
-// the voxels and share one transform: trilinear interpolation is linear in the voxel
-// values, so the sum of the tiles renders like the single grid.
+// the voxels and share one world lattice of voxel centres (each on its own index lattice,
+// shifted by whole voxels: VolumePlan::index_offset): trilinear interpolation is linear in
+// the voxel values, so the sum of the tiles renders like the single grid.
 #include <algorithm>
 #include <chrono>
 #include <map>
@@ -197,6 +198,15 @@ std::size_t VolumePlan::tile_of(const VoxelCoord& origin) const {
     return std::size_t(it - tile_keys.begin());
 }
 
+VoxelCoord VolumePlan::index_offset(std::size_t tile) const {
+    if (tiling.tile_voxels <= 0 || tile_keys.size() <= 1) return {0, 0, 0};
+    const std::uint64_t key = tile_keys.at(tile);
+    const int mask = (1 << 21) - 1;
+    const int ci = int(key >> 42) & mask, cj = int(key >> 21) & mask, ck = int(key) & mask;
+    const int c = 4 * (ci & 1) + 2 * (cj & 1) + (ck & 1);
+    return {c, c, c};
+}
+
 std::size_t VolumePlan::find_tile(const VoxelCoord& origin) const {
     if (tiling.tile_voxels <= 0) return 0;
     for (int a = 0; a < 3; ++a)
@@ -224,11 +234,35 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
         std::uint64_t active = 0, leaves = 0;
     };
     std::vector<Acc> acc(tiles * nc);
+    std::vector<VoxelCoord> offsets(tiles);
+    for (std::size_t t = 0; t < tiles; ++t) offsets[t] = plan.index_offset(t);
+    // The tile's leaves are on its own lattice (shifted by the index offset): a block's active
+    // box can span up to 8 of them. Counted as the distinct shifted leaves the boxes touch.
+    std::unordered_map<std::uint64_t, std::vector<VoxelCoord>> shifted;  // per (tile, constituent)
     for (const auto& leaf : leaves) {
-        Acc& a = acc[plan.tile_of(leaf.origin) * nc + leaf.constituent];
+        const std::size_t t = plan.tile_of(leaf.origin);
+        Acc& a = acc[t * nc + leaf.constituent];
         a.box.expand(leaf.active_box);
         a.active += leaf.active_voxels;
-        ++a.leaves;
+        const VoxelCoord o = offsets[t];
+        if (o == VoxelCoord{0, 0, 0}) {
+            ++a.leaves;
+            continue;
+        }
+        VoxelBox local;
+        for (int k = 0; k < 3; ++k) {
+            local.min[k] = leaf.active_box.min[k] - o[k];
+            local.max[k] = leaf.active_box.max[k] - o[k];
+        }
+        const VoxelCoord lo = block_floor(local.min), hi = block_floor(local.max);
+        auto& list = shifted[t * nc + leaf.constituent];
+        for (int x = lo[0]; x <= hi[0]; x += kDim)
+            for (int y = lo[1]; y <= hi[1]; y += kDim)
+                for (int z = lo[2]; z <= hi[2]; z += kDim) list.push_back({x, y, z});
+    }
+    for (auto& [i, list] : shifted) {
+        std::sort(list.begin(), list.end());
+        acc[i].leaves = std::uint64_t(std::unique(list.begin(), list.end()) - list.begin());
     }
     if (plan.tiling.tile_voxels > 0) {
         const auto boxes = tile_boxes(leaves, leaf_neighbours(leaves), nc, plan.tiling.base, plan.tiling.tile_voxels);
@@ -241,6 +275,7 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
     s.voxel_size = layout.voxel_size;
     s.unit = layout.options.unit;
     s.tiles = tiles;
+    s.index_offsets = offsets;
     for (std::size_t t = 0; t < tiles; ++t) {
         for (std::size_t c = 0; c < nc; ++c) {
             const Acc& a = acc[t * nc + c];
