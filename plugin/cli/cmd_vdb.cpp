@@ -126,7 +126,7 @@ void add_vdb_command(CLI::App& app) {
     cmd->add_option("--max-memory-mb", o->max_memory_mb, "Refuse before building grids larger than this (MiB)")
         ->check(number_in(0.0, 1e12, Ends::open_low))
         ->capture_default_str();
-    cmd->add_option("--tile-voxels", o->tile_voxels, "Tile edge in voxels, a multiple of 8 in [8, 65536]; 0 automatic, -1 one tile")
+    cmd->add_option("--tile-voxels", o->tile_voxels, "Tile edge in voxels, a multiple of 8 in [8, 65536]; 0 automatic, -1 one tile (below 24, Cycles before Blender 5.0 can still drop a tile where two tiles' mesh offsets coincide: docs/vdb.md, Tiling)")
         ->check(int_in(-1, 65536))  // and a multiple of 8: check_options (vdb_export)
         ->capture_default_str();
     cmd->add_option("--max-tiles", o->max_tiles, "Most tiles automatic tiling may use")
