@@ -20,6 +20,7 @@
 #include <memory>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "airmass/atmosphere.hpp"
@@ -333,8 +334,8 @@ TEST(DiskTableStore, AnUnwritableFolderIsNoCacheNotAnError) {
 // Error of the sky's radiance with the view's multiple scattering against per-ray integration,
 // per direction max_λ |ΔL| / max_λ L (the image metric of docs/sky.md, a channel's error
 // relative to the pixel's brightness): p95 over directions uniform in solid angle (cos θ in
-// 180 steps × azimuth every 15°), max over those and a band of 0.05° steps within 2.5° of the
-// horizon.
+// 180 steps × azimuth every 15°), max over those and bands of 0.05° steps within 2.5° of the
+// astronomical horizon and of the ground's (the Earth's limb, 3.2° below it from 10 km).
 struct ViewError {
     double p95 = 0.0, max = 0.0;
 };
@@ -345,7 +346,11 @@ ViewError view_error(const Evaluator& ev, double altitude_m, double sun_elevatio
     std::vector<double> zenith;
     for (int i = 0; i < 180; ++i) zenith.push_back(std::acos(1.0 - (i + 0.5) / 90.0) * 180.0 / M_PI);
     const std::size_t uniform = zenith.size();
+    const double ground_deg = Horizon::of(ev.atmosphere().planet_radius_m, ev.atmosphere().top_altitude_m, altitude_m)
+                                  .theta_horizon * 180.0 / M_PI;
     for (double z = 87.5; z < 92.5; z += 0.05) zenith.push_back(z);
+    if (ground_deg > 92.5)
+        for (double z = ground_deg - 2.5; z < ground_deg + 2.5; z += 0.05) zenith.push_back(z);
     std::vector<Vec3<double>> dirs;
     for (double z : zenith)
         for (double a = 0.0; a <= 180.0; a += 15.0) {
@@ -381,11 +386,16 @@ TEST(MsView, SkyWithTheViewMatchesPerRayIntegration) {
     // Total radiance (single + multiple) at the view's default resolution. The sky images of
     // docs/sky.md measure p95 0.08–0.21 %, max 0.7–1.7 % for sun 2° and −4° at 512 × 256. Without
     // the view's normalisation by the ray's transmittance, 1 m below the horizon was 10× off.
-    for (const auto& [altitude, elevation] : std::vector<std::pair<double, double>>{
-             {2.0, 30.0}, {2.0, 2.0}, {2.0, -4.0}, {10000.0, 20.0}, {400e3, 30.0}}) {
+    // From 10 km at sun −4° the ground rays just below the Earth's limb (twilight: the radiance
+    // falls 25× across it) were 39 % off here and 34 % in earth's 256 × 128 image while the
+    // ground piece's rows were spaced as the sky's (c = 0.25); with c = 0.01 there
+    // (SkyGridLayout::view) 6.7 % here, 1.3 % in that image.
+    for (const auto& [altitude, elevation, max_error] : std::vector<std::tuple<double, double, double>>{
+             {2.0, 30.0, 0.03}, {2.0, 2.0, 0.03}, {2.0, -4.0, 0.03}, {10000.0, 20.0, 0.03}, {10000.0, -4.0, 0.1},
+             {400e3, 30.0, 0.03}}) {
         const ViewError e = view_error(ev, altitude, elevation, kSkyDefaultMultipleGrid);
         EXPECT_LT(e.p95, 0.003) << "altitude " << altitude << " m, sun " << elevation << " deg";
-        EXPECT_LT(e.max, 0.03) << "altitude " << altitude << " m, sun " << elevation << " deg";
+        EXPECT_LT(e.max, max_error) << "altitude " << altitude << " m, sun " << elevation << " deg";
     }
     // A finer view is closer.
     EXPECT_LT(view_error(ev, 2.0, 10.0, 64).p95, view_error(ev, 2.0, 10.0, 8).p95);

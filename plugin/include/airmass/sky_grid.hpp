@@ -14,8 +14,12 @@
 // values (RGB parts for the image, one per wavelength for the multiple-scattering view).
 //
 // The two layouts (SkyGridLayout): the multiple-scattering view's (M intervals, M/2 + 1 rows
-// per piece, c = 0.25, equal columns), and the sky image's (G intervals, G + 1 rows per piece,
-// c = 0.04, c' = 1). The image holds its single scattering over each column's phase function
+// per piece, c = 0.25 above the horizon and 0.01 below it, equal columns), and the sky image's
+// (G intervals, G + 1 rows per piece, c = 0.04, c' = 1). The view's ground rows crowd at the
+// horizon because, seen from above the ground at twilight, the radiance of the ground rays
+// changes fastest just below the Earth's limb (earth, 10 km, sun −4°, 256 × 128 against every
+// ray: max 34 % with c = 0.25 there, 6.1 % with 0.04, 1.3 % with 0.01; the sky rows and the
+// other conditions of docs/sky.md's view table no worse). The image holds its single scattering over each column's phase function
 // (sky.cpp), so what it interpolates has no aureole; what is left sharp is the zenith angle
 // next to the horizon — hence its rows: twice as many, their spacing there 0.038 of an even
 // one's (docs/sky.md measures both).
@@ -61,11 +65,12 @@ struct SkyGridLayout {
     int rows_per_piece = 0;
     double row_concentration = 0.25;    // c: the row spacing at the horizon is c/(1 + c) of an even one's
     double column_concentration = 0.0;  // c': the column spacing at the sun c'/(1 + c') of it; 0: even
+    double ground_row_concentration = 0.25;  // c of the ground piece's rows (below the horizon)
 
     // The multiple-scattering view of M intervals (evaluator.hpp MsView).
-    static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.25, 0.0}; }
+    static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.25, 0.0, 0.01}; }
     // The sky image's grid of G intervals (sky.hpp SkySettings::grid).
-    static SkyGridLayout image(int G) { return {G, G + 1, 0.04, 1.0}; }
+    static SkyGridLayout image(int G) { return {G, G + 1, 0.04, 1.0, 0.04}; }
     // Its rays: columns × rows, two pieces or one (the sky only).
     double rays(bool one_piece) const { return double(intervals + 1) * rows_per_piece * (one_piece ? 1 : 2); }
 };
@@ -81,7 +86,8 @@ struct SkyGrid {
     int intervals = 0;  // ψ intervals (G)
     int rows_sky = 0, rows_ground = 0;
     int channels = 0;
-    double c = 0.25;        // SkyGridLayout::row_concentration
+    double c = 0.25;        // SkyGridLayout::row_concentration (the sky piece)
+    double c_ground = 0.25;  // SkyGridLayout::ground_row_concentration
     double column_c = 0.0;  // SkyGridLayout::column_concentration
     Horizon hz;
     double sun_phi = 0.0;        // azimuth of the sun, atan2(s.y, s.x)
@@ -92,6 +98,7 @@ struct SkyGrid {
     static SkyGrid make(const SkyGridLayout& layout, const Horizon& hz, Vec3<double> sun, int channels, bool sky_only) {
         SkyGrid g;
         g.c = layout.row_concentration;
+        g.c_ground = layout.ground_row_concentration;
         g.column_c = layout.column_concentration;
         g.intervals = layout.intervals;
         g.hz = hz;
@@ -106,8 +113,8 @@ struct SkyGrid {
     int rows() const { return rows_sky + rows_ground; }
     int columns() const { return intervals + 1; }
 
-    double f_of_x(double x) const { return x * (x + c) / (1.0 + c); }
-    double x_of_f(double f) const { return 0.5 * (-c + std::sqrt(c * c + 4.0 * (1.0 + c) * f)); }
+    static double f_of_x(double x, double c) { return x * (x + c) / (1.0 + c); }
+    static double x_of_f(double f, double c) { return 0.5 * (-c + std::sqrt(c * c + 4.0 * (1.0 + c) * f)); }
 
     // ψ/π of grid column coordinate x = j/G, and its inverse: odd in x (ψ(−x) = −ψ(x)), so the
     // mirror at ψ = 0 is exact in grid coordinates.
@@ -122,22 +129,22 @@ struct SkyGrid {
     // Zenith angle of grid row k (sky rows first).
     double row_theta(int k) const {
         if (k < rows_sky) {
-            const double f = f_of_x(double(k) / (rows_sky - 1));
+            const double f = f_of_x(double(k) / (rows_sky - 1), c);
             return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0) +
                    (k == rows_sky - 1 && hz.theta_space > 0.0 ? kEdge : 0.0);
         }
-        const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1));
+        const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1), c_ground);
         return std::min(hz.theta_horizon + f * ground_span(), std::numbers::pi) + (k == rows_sky ? kEdge : 0.0);
     }
     // Continuous grid row of a zenith angle; −1 for directions that miss the atmosphere.
     double row_of(double theta) const {
         if (theta <= hz.theta_horizon) {
             if (theta < hz.theta_space || sky_span() <= 0.0) return -1.0;
-            return x_of_f(std::clamp((hz.theta_horizon - theta) / sky_span(), 0.0, 1.0)) * (rows_sky - 1);
+            return x_of_f(std::clamp((hz.theta_horizon - theta) / sky_span(), 0.0, 1.0), c) * (rows_sky - 1);
         }
         if (rows_ground == 0) return -1.0;
         return rows_sky +
-               x_of_f(std::clamp((theta - hz.theta_horizon) / ground_span(), 0.0, 1.0)) * (rows_ground - 1);
+               x_of_f(std::clamp((theta - hz.theta_horizon) / ground_span(), 0.0, 1.0), c_ground) * (rows_ground - 1);
     }
     // The unit direction of node (row k, column j).
     Vec3<double> node_direction(int k, int j) const {
