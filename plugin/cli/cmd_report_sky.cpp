@@ -39,10 +39,12 @@
 #include "airmass/atmosphere.hpp"
 #include "airmass/chapman.hpp"
 #include "airmass/color.hpp"
+#include "airmass/progress.hpp"
 #include "airmass/scene_io.hpp"
 #include "airmass/single_scattering.hpp"
 #include "airmass/sky.hpp"
 #include "airmass/sky_grid.hpp"
+#include "airmass/terminal.hpp"
 #include "airmass/vdb_export.hpp"  // write_text_atomic
 #include "commands.hpp"
 #include "csv.hpp"
@@ -161,6 +163,27 @@ std::string pct(double v) {
     return b;
 }
 
+// Progress and Ctrl-C for one run: on a terminal a bar per stage, its units the stage's images
+// or configurations; with stderr elsewhere a line per stage and configuration (none with
+// --quiet). Every render takes hooks() (cancellable: Cancelled, caught in add_report_sky).
+struct Reporter {
+    const CancelFlag& cancel;
+    bool quiet = false;
+    bool bar_on() const { return stderr_is_terminal() && !quiet; }
+    RenderHooks hooks() const {
+        RenderHooks h;
+        h.cancel = &cancel;
+        return h;
+    }
+    void check() const {
+        if (cancel.requested()) throw Cancelled("report sky: cancelled");
+    }
+    // A line for a log (no bar drawn, not --quiet).
+    void line(const std::string& text) const {
+        if (!quiet && !bar_on()) std::fprintf(stderr, "report sky: %s\n", text.c_str());
+    }
+};
+
 
 // ---- the multiple-scattering view's knobs ---------------------------------------------------
 //
@@ -182,7 +205,7 @@ struct MsViewConfig {
 };
 
 std::string ms_view_report(const std::string& out_dir, const std::string& preset, const Scene& base, bool quick,
-                           int threads) {
+                           int threads, const Reporter& rep) {
     // 256 × 128: 16 384 rays with the mirror, more than the largest view measured (M = 64:
     // 65 × 66 rays), so every view is built, and more than the default sky grid's 3 362 nodes.
     const int W = quick ? 128 : 256, H = W / 2;
@@ -213,13 +236,19 @@ std::string ms_view_report(const std::string& out_dir, const std::string& preset
         return s;
     };
     // One session: the tables once (the preset's own basis), every image a render of it.
-    std::fprintf(stderr, "report sky: multiple-scattering view: tables...\n");
-    const SkySession session(base, settings_for({0, kMsReferenceSamples}, W, H));
+    rep.line("multiple-scattering view: tables, " + std::to_string(conditions.size()) + " references, " +
+             std::to_string(configs.size()) + " configurations");
+    ProgressBar bar("report sky: multiple-scattering view", 1 + conditions.size() + configs.size(), rep.bar_on());
+    const SkySession session(base, settings_for({0, kMsReferenceSamples}, W, H), rep.hooks());
+    bar.advance();
     const auto render = [&](const Cond& c, const MsViewConfig& cfg, int w, int h) {
-        return session.render(sun_direction(c.elevation_deg, 0.0), c.altitude_m, settings_for(cfg, w, h));
+        return session.render(sun_direction(c.elevation_deg, 0.0), c.altitude_m, settings_for(cfg, w, h), rep.hooks());
     };
     std::vector<FloatImage> refs;
-    for (const Cond& c : conditions) refs.push_back(render(c, {0, kMsReferenceSamples}, W, H));
+    for (const Cond& c : conditions) {
+        refs.push_back(render(c, {0, kMsReferenceSamples}, W, H));
+        bar.advance();
+    }
     // The reference's own convergence: twice its intervals, at twilight and by day.
     std::ostringstream self;
     for (const Cond& c : {conditions.front(), conditions[quick ? 1 : 3]}) {
@@ -252,15 +281,15 @@ std::string ms_view_report(const std::string& out_dir, const std::string& preset
         double best = 1e300;
         for (int k = 0; k < 3; ++k) {
             const auto t0 = std::chrono::steady_clock::now();
-            ses.render(sun_direction(30.0, 0.0), 0.0, st);
+            ses.render(sun_direction(30.0, 0.0), 0.0, st, rep.hooks());
             best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         }
         return best;
     };
     for (std::size_t i = 0; i < configs.size(); ++i) {
         const MsViewConfig& cfg = configs[i];
-        std::fprintf(stderr, "\rreport sky: multiple-scattering view %zu/%zu: --ms-grid %-3d --ms-samples %-3d", i + 1,
-                     configs.size(), cfg.ms_grid, cfg.ms_samples);
+        rep.line("multiple-scattering view " + std::to_string(i + 1) + "/" + std::to_string(configs.size()) +
+                 ": --ms-grid " + std::to_string(cfg.ms_grid) + " --ms-samples " + std::to_string(cfg.ms_samples));
         Errors above, below;
         double worst = 0;
         for (std::size_t ci = 0; ci < conditions.size(); ++ci) {
@@ -280,11 +309,12 @@ std::string ms_view_report(const std::string& out_dir, const std::string& preset
             seconds = time_of(session, settings_for(timed, TW, TW / 2));
         }
         rows.push_back({cfg, seconds, above.stats(), below.stats(), worst});
+        bar.advance();
     }
-    std::fprintf(stderr, "\n");
+    bar.finish();
     SkySettings off = settings_for({kSkyDefaultMultipleGrid, defaults.multiple.view_samples, -1}, TW, TW / 2);
     off.multiple.enabled = false;
-    const double seconds_off = time_of(SkySession(base, off), off);
+    const double seconds_off = time_of(SkySession(base, off, rep.hooks()), off);
     double seconds_default = 0;
     for (const Row& r : rows)
         if (r.cfg.grid == -1) seconds_default = r.seconds;
@@ -338,9 +368,10 @@ struct Options {
     int reference_samples = 128;
     bool quick = false;
     bool multiple_view = true;
+    bool quiet = false;
 };
 
-void run_report(const Options& opt) {
+void run_report(const Options& opt, const Reporter& rep) {
     std::error_code ec;
     fs::create_directories(opt.out, ec);
     if (ec) throw CliError("report sky: cannot create --out directory '" + opt.out + "': " + ec.message());
@@ -418,12 +449,17 @@ void run_report(const Options& opt) {
     };
 
     // ---- the reference, and its own convergence ------------------------------------------
-    std::fprintf(stderr, "report sky: reference (exact Chapman, %d samples, %zu wavelengths) for %zu conditions...\n",
-                 opt.reference_samples, reference_basis.basis.wavelengths_nm.size(), conditions.size());
+    rep.line("reference (exact Chapman, " + std::to_string(opt.reference_samples) + " samples, " +
+             std::to_string(reference_basis.basis.wavelengths_nm.size()) + " wavelengths) for " +
+             std::to_string(conditions.size()) + " conditions");
     std::vector<FloatImage> refs;
-    for (const auto& c : conditions)
+    // the references, then their self-check: twice the samples at two conditions (4 images)
+    ProgressBar ref_bar("report sky: reference", conditions.size() + 4, rep.bar_on());
+    for (const auto& c : conditions) {
         refs.push_back(render_sky(scene_for(c, reference_basis.basis),
-                                  settings_for(ChapmanMethod::exact, opt.reference_samples, W, H)));
+                                  settings_for(ChapmanMethod::exact, opt.reference_samples, W, H), rep.hooks()));
+        ref_bar.advance();
+    }
 
     std::ostringstream ref_csv;
     ref_csv << "check,condition,p95_above,max_above,p95_below,max_below\n";
@@ -433,9 +469,12 @@ void run_report(const Options& opt) {
         for (std::size_t ci : {std::size_t(0), conditions.size() - 1}) {
             const auto& c = conditions[ci];
             const Scene s = scene_for(c, reference_basis.basis);
-            const FloatImage a = render_sky(s, settings_for(ChapmanMethod::exact, opt.reference_samples, W / 2, H / 2));
+            const FloatImage a =
+                render_sky(s, settings_for(ChapmanMethod::exact, opt.reference_samples, W / 2, H / 2), rep.hooks());
+            ref_bar.advance();
             const FloatImage b =
-                render_sky(s, settings_for(ChapmanMethod::exact, 2 * opt.reference_samples, W / 2, H / 2));
+                render_sky(s, settings_for(ChapmanMethod::exact, 2 * opt.reference_samples, W / 2, H / 2), rep.hooks());
+            ref_bar.advance();
             const ImageErrors e = compare(a, b);
             const auto sa = e.above.stats(), sb = e.below.stats();
             char label[64];
@@ -483,6 +522,7 @@ void run_report(const Options& opt) {
                << " directions, rel. tol. 1e-7) | sun 5° alt 0 m | " << pct(sa.p95) << " | " << pct(sa.max) << " | "
                << pct(sb.p95) << " | " << pct(sb.max) << " |\n";
     }
+    ref_bar.finish();
 
     // ---- every configuration -------------------------------------------------------------
     const int threads = tbb::info::default_concurrency();
@@ -500,17 +540,19 @@ void run_report(const Options& opt) {
     };
     std::vector<Row> rows;
     std::size_t done = 0;
+    ProgressBar bar("report sky: configurations", configs.size(), rep.bar_on());
     for (const auto& cfg : configs) {
         ++done;
         const std::string_view mname = chapman_method_name(cfg.chapman);
-        std::fprintf(stderr, "\rreport sky: %zu/%zu %-28.*s samples %-3d %-12s grid %-5d", done, configs.size(),
-                     int(mname.size()), mname.data(), cfg.samples, bases[cfg.basis].label.c_str(), cfg.grid);
+        rep.line(std::to_string(done) + "/" + std::to_string(configs.size()) + " " + std::string(mname) + ", " +
+                 std::to_string(cfg.samples) + " samples, " + bases[cfg.basis].label + ", grid " +
+                 std::to_string(cfg.grid));
         Errors all_above, all_below, check_above, check_all;
         double worst = 0;
         for (std::size_t ci = 0; ci < conditions.size(); ++ci) {
             const auto& c = conditions[ci];
             const FloatImage img = render_sky(scene_for(c, bases[cfg.basis].basis),
-                                              settings_for(cfg.chapman, cfg.samples, W, H, cfg.grid));
+                                              settings_for(cfg.chapman, cfg.samples, W, H, cfg.grid), rep.hooks());
             const ImageErrors e = compare(img, refs[ci]);
             const auto sa = e.above.stats(), sb = e.below.stats();
             cond_csv << mname << "," << cfg.samples << "," << bases[cfg.basis].label << "," << cfg.grid << ","
@@ -534,7 +576,7 @@ void run_report(const Options& opt) {
         double best = 1e300;
         for (;;) {
             const auto t0 = std::chrono::steady_clock::now();
-            render_sky(ts, settings_for(cfg.chapman, cfg.samples, tw, tw / 2, cfg.grid));
+            render_sky(ts, settings_for(cfg.chapman, cfg.samples, tw, tw / 2, cfg.grid), rep.hooks());
             const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             if (sec < (opt.quick ? 0.02 : 0.1) && tw < 4096 && cfg.grid == 0) {
                 tw *= 2;
@@ -542,7 +584,7 @@ void run_report(const Options& opt) {
             }
             best = std::min(best, sec);
             const auto t1 = std::chrono::steady_clock::now();
-            render_sky(ts, settings_for(cfg.chapman, cfg.samples, tw, tw / 2, cfg.grid));
+            render_sky(ts, settings_for(cfg.chapman, cfg.samples, tw, tw / 2, cfg.grid), rep.hooks());
             best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
             break;
         }
@@ -556,7 +598,8 @@ void run_report(const Options& opt) {
             const int NW = opt.quick ? 256 : 1024, NH = NW / 2;
             for (double e : {5.0, 30.0, 60.0, 90.0}) {
                 const Scene sc = scene_for({e, 0.0, true}, bases[cfg.basis].basis);
-                const FloatImage img = render_sky(sc, settings_for(cfg.chapman, cfg.samples, NW, NH, cfg.grid));
+                const FloatImage img =
+                    render_sky(sc, settings_for(cfg.chapman, cfg.samples, NW, NH, cfg.grid), rep.hooks());
                 const glm::dvec3 sun = sun_direction(e, 0.0);
                 std::vector<glm::dvec3> dirs;
                 std::vector<std::pair<int, int>> where;
@@ -567,6 +610,7 @@ void run_report(const Options& opt) {
                         dirs.push_back(d);
                         where.push_back({x, y});
                     }
+                rep.check();
                 const auto exact = sky_radiance_rgb(sc, settings_for(cfg.chapman, cfg.samples, NW, NH, 0), dirs);
                 for (std::size_t k = 0; k < dirs.size(); ++k) {
                     const float* p = img.at(where[k].first, where[k].second);
@@ -586,8 +630,9 @@ void run_report(const Options& opt) {
             << "," << format_g17(row.check_above.p95) << "," << format_g17(row.check_all.p95) << ","
             << format_g17(worst) << "," << format_g17(near_sun) << "\n";
         rows.push_back(row);
+        bar.advance();
     }
-    std::fprintf(stderr, "\n");
+    bar.finish();
 
     // ---- Markdown --------------------------------------------------------------------------
     std::ostringstream md;
@@ -668,10 +713,6 @@ void run_report(const Options& opt) {
     write_text_atomic(fs::path(opt.out) / "sky_reference.csv", ref_csv.str());
     write_text_atomic(fs::path(opt.out) / "sky_trade.md", md.str());
     std::fputs(md.str().c_str(), stdout);
-    if (opt.multiple_view) {
-        const std::string view = ms_view_report(opt.out, opt.preset, base, opt.quick, threads);
-        std::fputs(("\n" + view).c_str(), stdout);
-    }
 }
 
 }  // namespace
@@ -692,7 +733,25 @@ void add_report_sky(CLI::App& report) {
     cmd->add_flag("--quick", opt->quick, "A small subset (smoke test): 2 methods × 2 sample counts, 3 conditions");
     cmd->add_flag("!--no-multiple-view", opt->multiple_view,
                   "Leave out the multiple-scattering view's trade (--ms-grid × --ms-samples, sky_ms_view.md)");
-    cmd->callback([opt] { run_report(*opt); });
+    cmd->add_flag("-q,--quiet", opt->quiet, "No progress output (the tables still go to stdout)");
+    cmd->callback([opt] {
+        CancelFlag cancel;
+        InterruptGuard guard(cancel);  // Ctrl-C: the render under way stops, nothing more is written
+        const Reporter rep{cancel, opt->quiet};
+        try {
+            run_report(*opt, rep);
+        } catch (const Cancelled&) {
+            throw Cancelled("report sky: cancelled; nothing written");
+        }
+        if (!opt->multiple_view) return;
+        try {
+            const std::string view = ms_view_report(opt->out, opt->preset, load_preset(opt->preset), opt->quick,
+                                                    tbb::info::default_concurrency(), rep);
+            std::fputs(("\n" + view).c_str(), stdout);
+        } catch (const Cancelled&) {
+            throw Cancelled("report sky: cancelled; sky_trade.* written to " + opt->out + ", sky_ms_view.* not");
+        }
+    });
 }
 
 }  // namespace airmass::cli

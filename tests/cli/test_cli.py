@@ -241,3 +241,30 @@ def test_compare_child_dies_with_compare(airmass_bin, tmp_path, sig):
             proc.wait()
         if child is not None and _alive(child):
             os.kill(child, signal.SIGKILL)
+
+
+@pytest.mark.parametrize("quiet", [False, True], ids=["progress", "quiet"])
+def test_report_sky_ctrl_c_writes_nothing(airmass_bin, tmp_path, quiet):
+    # `report sky` takes minutes: Ctrl-C (SIGINT) stops the render under way and writes no table;
+    # off a terminal it says what it does a line at a time, nothing with -q.
+    out = tmp_path / "sky"
+    cmd = [airmass_bin, "report", "sky", "--quick", "--out", str(out)] + (["-q"] if quiet else [])
+    err = tmp_path / "stderr.txt"
+    with open(err, "wb") as stderr:
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=stderr)
+        try:
+            # the first reference image alone takes seconds; the output directory exists by then
+            assert _wait_for(lambda: out.is_dir() or proc.poll() is not None, 60)
+            time.sleep(1.0)
+            assert proc.poll() is None, "report sky ended before the interrupt: %s" % err.read_text()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=60)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    text = err.read_text()
+    assert proc.returncode == 2, text
+    assert "airmass: report sky: cancelled; nothing written" in text
+    assert ("report sky: reference (exact Chapman" in text) == (not quiet), text
+    assert sorted(p.name for p in out.iterdir()) == []
