@@ -18,6 +18,7 @@
 #include "airmass/vdb_grids.hpp"
 #include "airmass/vdb_trade.hpp"
 #include "airmass/volume.hpp"
+#include "volume/voxel_average.hpp"
 
 namespace fs = std::filesystem;
 using namespace airmass;
@@ -89,11 +90,13 @@ VdbOptions small_box() {
 
 }  // namespace
 
-TEST(Vdb, RoundTripValuesAtVoxelCentresEqualTheAnalyticDensity) {
+TEST(Vdb, RoundTripPointValuesAtVoxelCentresEqualTheAnalyticDensity) {
     const Scene scene = load_preset("earth");
     TempDir dir;
     const fs::path out = dir / "a.vdb";
-    const VdbStats stats = export_vdb(scene, small_box(), out);
+    VdbOptions o = small_box();
+    o.voxel_values = VoxelValues::point;
+    const VdbStats stats = export_vdb(scene, o, out);
     ASSERT_EQ(stats.files.size(), 1u);
     EXPECT_EQ(stats.files[0], out);
     EXPECT_EQ(stats.file_bytes, fs::file_size(out));
@@ -126,9 +129,50 @@ TEST(Vdb, RoundTripValuesAtVoxelCentresEqualTheAnalyticDensity) {
     EXPECT_FALSE(oz.isValueOn(Coord(0, 0, 4)));                          // 8 km: below the tent
 }
 
+// The default values: each voxel the mean of its constituent's profile over its trilinear hat
+// (voxel_average, checked against a brute force in test_voxel_average.cpp) at the voxel's own
+// altitude and vertical — the file holds what that function gives, rounded to float.
+TEST(Vdb, RoundTripAverageValuesAreEachVoxelsHatMean) {
+    const Scene scene = load_preset("earth");
+    TempDir dir;
+    const fs::path out = dir / "a.vdb";
+    export_vdb(scene, small_box(), out);
+    const ReadBack rb = read_vdb(out);
+    std::size_t checked = 0;
+    for (const char* name : {"rayleigh", "mie", "ozone"}) {
+        SCOPED_TRACE(name);
+        const auto& g = rb.grids.at(name);
+        EXPECT_EQ(g->metaValue<std::string>("airmass:voxel_values"), "average");
+        const auto pieces = airmass::detail::DensityPieces::of(constituent(scene, name).profile, 60e3);
+        for (auto it = g->cbeginValueOn(); it; ++it) {
+            const Vec3d p = g->indexToWorld(it.getCoord());
+            const Vec3d up = (p - Vec3d(0, 0, -6360.0)).unit();
+            const double expected =
+                airmass::detail::voxel_average(pieces, altitude_km(p) * 1000.0, {up[0], up[1], up[2]}, 2000.0);
+            EXPECT_NEAR(*it, expected, 2e-7 * expected + 1e-30) << "at " << p;
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 1000u);
+    // By hand on the axis (the vertical is z: the hat's mean of exp(−h/H) is exp(−h/H) times
+    // the triangle's moment generating function (sinh y / y)², y = Δ/2H): Rayleigh at 8 km,
+    // 2-km voxels: e^{−1} (sinh(1/8)/(1/8))²; the ozone tent is linear around 20 km: its value.
+    auto ray = rb.grids.at("rayleigh")->getConstAccessor();
+    const double y = 1.0 / 8.0;
+    EXPECT_FLOAT_EQ(ray.getValue(Coord(0, 0, 4)), float(std::exp(-1.0) * std::pow(std::sinh(y) / y, 2)));
+    auto oz = rb.grids.at("ozone")->getConstAccessor();
+    EXPECT_FLOAT_EQ(oz.getValue(Coord(0, 0, 10)), float(10.0 / 15.0));  // 20 km
+    // At the tent's foot (10 km) the hat [8, 12] km sees the flank (h − 10)/15 above it with the
+    // triangle's weight (2 − |x|)/4: ∫₀² x/15 · (2 − x)/4 dx = 1/45 (a point value would be 0);
+    // at 8 km the hat ends where the tent begins: 0, inactive.
+    EXPECT_FLOAT_EQ(oz.getValue(Coord(0, 0, 5)), float(1.0 / 45.0));
+    EXPECT_FALSE(oz.isValueOn(Coord(0, 0, 4)));
+}
+
 TEST(Vdb, EveryVoxelOfTheRegionAboveTheThresholdIsActive) {
     const Scene scene = load_preset("earth");
-    const VdbOptions opt = small_box();
+    VdbOptions opt = small_box();
+    opt.voxel_values = VoxelValues::point;
     const VdbVolume vol = build_vdb_volume(scene, opt);
     ASSERT_EQ(vol.tiles.size(), 1u);
     const VdbLayout& L = vol.layout;
@@ -214,6 +258,7 @@ TEST(Vdb, TransformPlacesThePlanetCentreWhereTheSceneSays) {
             o.origin = origin;
             o.region = VdbRegion::box;
             o.voxel_size = 500.0 / L;  // 500 m
+            o.voxel_values = VoxelValues::point;  // the density at the index points: exact values to place
             o.box = {-1000 / L, -1000 / L, zs - 1000 / L, 1000 / L, 1000 / L, zs + 3000 / L};
             TempDir dir;
             export_vdb(scene, o, dir / "t.vdb");
@@ -467,6 +512,7 @@ TEST(Vdb, AutomaticTilingSkipsTheEmptyInteriorOfTheShell) {
     VdbOptions o;
     o.region = VdbRegion::planet;
     o.voxel_size = 30.0;  // the shell is 2 voxels thick: one box is mostly empty
+    o.voxel_values = VoxelValues::point;  // (a mean reaches √3 voxels further: 4 voxels thick)
     VdbRunOptions run;
     run.dry_run = true;
     const VdbStats s = export_vdb(scene, o, "unused.vdb", run);
@@ -548,6 +594,13 @@ TEST(VdbBadInput, VoxelTooCoarseForAFloatGrid) {
     const Scene scene = load_preset("earth");
     VdbOptions o;
     o.region = VdbRegion::planet;
+    // A voxel's mean is at most the profile's largest value in the air (1 here): any voxel size
+    // is accepted.
+    o.voxel_size = 70.0;
+    for (const auto& c : resolve_vdb_layout(scene, o).constituents)
+        EXPECT_LE(c.density_max, 1.0) << c.name;
+    // Point values extrapolate the profile below the ground: refused where that leaves floats.
+    o.voxel_values = VoxelValues::point;
     o.voxel_size = 50.0;
     const VdbLayout kept = resolve_vdb_layout(scene, o);
     for (const auto& c : kept.constituents)
@@ -762,6 +815,7 @@ VdbOptions layer_options(LayerCase c) {
             o.region = VdbRegion::planet;
             o.voxel_size = 50.0;  // 100 km held +inf below the ground (fix 22: refused now)
             o.tile_voxels = -1;
+            o.voxel_values = VoxelValues::point;  // the plumbing, at a tenth of the means' cost
             break;
         case LayerCase::view:
             o.region = VdbRegion::view;
@@ -772,6 +826,7 @@ VdbOptions layer_options(LayerCase c) {
             o.region = VdbRegion::planet;
             o.voxel_size = 50.0;  // 100 km held +inf below the ground (fix 22: refused now)
             o.tile_voxels = 64;   // 32 at 100 km (32 at 50 km: 314 tiles > --max-tiles)
+            o.voxel_values = VoxelValues::point;  // the plumbing, at a tenth of the means' cost
             break;
     }
     return o;

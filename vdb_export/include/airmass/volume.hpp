@@ -69,6 +69,18 @@ std::string_view length_unit_name(LengthUnit u);  // "km", "m"
 double metres_per_unit(LengthUnit u);              // 1000, 1
 std::string_view region_name(VdbRegion r);         // "planet", "view", "box"
 
+// What a voxel holds (docs/vdb.md, "Voxel values").
+enum class VoxelValues {
+    // The density's mean over the voxel's trilinear hat, in the air above the ground: the
+    // renderer's trilinear reconstruction then carries the atmosphere's mass at any voxel size.
+    average,
+    // The density at the voxel's index point (before 2026-12-07 the only choice): the
+    // reconstruction puts the profile's chords in place of its curve, biased when a voxel
+    // spans a good part of a scale height (docs/vdb.md measures both).
+    point,
+};
+std::string_view voxel_values_name(VoxelValues v);  // "average", "point"
+
 struct VdbOptions {
     VdbRegion region = VdbRegion::planet;
     LengthUnit unit = LengthUnit::km;
@@ -92,6 +104,7 @@ struct VdbOptions {
     int tile_voxels = 0;
     int max_tiles = 256;
     RgbWavelengths rgb = RgbWavelengths::automatic;
+    VoxelValues voxel_values = VoxelValues::average;
 };
 
 // Automatic voxel size in `unit` (docs/vdb.md, "Voxel size"): half the thinnest layer
@@ -267,8 +280,9 @@ public:
     // --max-memory-mb.
     std::vector<VolumeBlock> blocks(const VoxelBox* within = nullptr, int threads = 0) const;
 
-    // Samples the constituents of the block's mask: the density at every voxel's index
-    // point inside the region, active where it is > 0, ≥ the constituent's threshold and
+    // Samples the constituents of the block's mask: every voxel's value (VdbOptions::voxel_values:
+    // the density's mean over its hat, or the density at its index point) inside the region,
+    // active where it is > 0, ≥ the constituent's threshold and
     // nonzero as a float. `out` has one entry per layout constituent; every entry is
     // reset. Returns the mask of the constituents that have at least one active voxel.
     std::uint64_t fill(const VolumeBlock& block, std::span<VolumeBlockValues> out) const;

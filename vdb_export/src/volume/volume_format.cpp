@@ -92,6 +92,7 @@ void add_common(std::vector<VolumeMetadatum>& m, const VdbLayout& layout) {
     m.push_back({"airmass:planet_center", vec3(layout.planet_center)});
     m.push_back({"airmass:atmosphere_top", layout.atmosphere_top});
     m.push_back({"airmass:voxel_size", layout.voxel_size});
+    m.push_back({"airmass:voxel_values", std::string(voxel_values_name(layout.options.voxel_values))});
     m.push_back({"airmass:spectral_basis", layout.spectral_basis});
     m.push_back({"airmass:rgb_wavelengths_nm", layout.rgb_wavelengths_nm});
     m.push_back({"airmass:region", std::string(region_name(layout.options.region))});

@@ -64,6 +64,7 @@ std::string_view region_name(VdbRegion r) {
     }
     return "?";
 }
+std::string_view voxel_values_name(VoxelValues v) { return v == VoxelValues::average ? "average" : "point"; }
 
 namespace {
 
@@ -371,15 +372,23 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
     // Altitude bands; the ground margin lets trilinear interpolation reach the surface.
     const double ground_margin_m = std::sqrt(3.0) * v * r.L;
     const double thickness_m = scene.planet.atmosphere_top_m - scene.planet.radius_m;
+    const bool average = options.voxel_values == VoxelValues::average;
     for (auto& c : r.constituents) {
-        const auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
+        auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
+        if (average && lo <= hi) {
+            // A voxel's mean reaches as far as its hat (≤ √3 voxels along the vertical): a cell
+            // that far outside the band can hold a mean above the threshold.
+            lo = std::max(lo - ground_margin_m, -ground_margin_m);
+            hi = std::min(hi + ground_margin_m, thickness_m);
+        }
         c.band_min_m = lo;
         c.band_max_m = hi;
         if (!(lo <= hi)) continue;
-        // The grids hold floats. Below the ground the profile is extrapolated over the margin
-        // (trilinear interpolation at the surface reads it); a voxel many scale heights across
-        // extrapolates it past the float range, which would store +inf: refuse, naming why.
-        const double peak = profile_max(c.source->profile, lo, hi);
+        // The grids hold floats. With point values the profile is extrapolated below the
+        // ground over the margin (trilinear interpolation at the surface reads it); a voxel many
+        // scale heights across extrapolates it past the float range, which would store +inf:
+        // refuse, naming why. A mean is at most the profile's largest value in the air.
+        const double peak = profile_max(c.source->profile, average ? std::max(lo, 0.0) : lo, hi);
         if (!(peak <= double(std::numeric_limits<float>::max())))
             throw VdbError("--voxel-size = " + fmt(v) + " " + unit + (layout.voxel_size_automatic ? " (automatic)" : "") +
                            " is too coarse for constituent '" + c.name + "': its density extrapolated one voxel diagonal (" +

@@ -14,6 +14,7 @@
 #include "airmass/volume.hpp"
 #include "volume_format.hpp"
 #include "volume_region.hpp"
+#include "voxel_average.hpp"
 
 namespace airmass {
 
@@ -149,10 +150,14 @@ std::string where_of(const VdbLayout& layout) {
 struct VolumeSampler::Region {
     detail::VdbRegionTest test;
     std::vector<Radii> radii;
+    std::vector<detail::DensityPieces> pieces;  // VoxelValues::average: each constituent's profile
     explicit Region(const VdbLayout& layout) : test(layout) {
-        for (const auto& c : layout.constituents)
+        const double top_m = (layout.atmosphere_top - layout.planet_radius) * layout.metres_per_unit;
+        for (const auto& c : layout.constituents) {
             radii.push_back({layout.planet_radius + c.band_min_m / layout.metres_per_unit,
                              std::min(layout.atmosphere_top, layout.planet_radius + c.band_max_m / layout.metres_per_unit)});
+            pieces.push_back(detail::DensityPieces::of(c.source->profile, top_m));
+        }
     }
 };
 
@@ -208,8 +213,11 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
     const std::uint64_t mask = nc >= 64 ? block.constituents : block.constituents & ((std::uint64_t(1) << nc) - 1);
     if (mask == 0) return 0;
     const double v = L.voxel_size, Lm = L.metres_per_unit;
+    const bool average = L.options.voxel_values == VoxelValues::average;
     const detail::VdbRegionTest& region = region_->test;
     std::uint64_t any = 0;
+    const detail::DensityPieces* asked[kMaxVolumeConstituents];
+    double values[kMaxVolumeConstituents];
     for (int x = 0; x < kDim; ++x) {
         for (int y = 0; y < kDim; ++y) {
             for (int z = 0; z < kDim; ++z) {
@@ -219,12 +227,23 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                 const double r = glm::length(p - L.planet_center);
                 if (r > L.atmosphere_top) continue;  // no atmosphere above the top
                 const double h_m = (r - L.planet_radius) * Lm;
+                const Vec3d up = r > 0.0 ? (p - L.planet_center) / r : Vec3d(0, 0, 1);
                 const int offset = x * kDim * kDim + y * kDim + z;
+                // the constituents whose band holds the voxel; their values (one call for all
+                // of them with VoxelValues::average: the hat's quadrature is shared)
+                bool any_in = false;
                 for (std::size_t c = 0; c < nc; ++c) {
-                    if (!(mask >> c & 1)) continue;
                     const VdbConstituent& con = L.constituents[c];
-                    if (h_m < con.band_min_m || h_m > con.band_max_m) continue;
-                    const double rho = con.source->profile.at(h_m);
+                    const bool in = (mask >> c & 1) && h_m >= con.band_min_m && h_m <= con.band_max_m;
+                    asked[c] = in ? &region_->pieces[c] : nullptr;
+                    any_in = any_in || in;
+                }
+                if (!any_in) continue;
+                if (average) detail::voxel_averages(std::span(asked, nc), h_m, up, v * Lm, std::span(values, nc));
+                for (std::size_t c = 0; c < nc; ++c) {
+                    if (!asked[c]) continue;
+                    const VdbConstituent& con = L.constituents[c];
+                    const double rho = average ? values[c] : con.source->profile.at(h_m);
                     if (!(rho > 0.0) || rho < con.density_threshold) continue;
                     const float f = float(rho);
                     if (!(f > 0.0f)) continue;  // an active voxel holds a nonzero value

@@ -1,0 +1,244 @@
+// voxel_average.hpp: the mean of a density profile over a voxel's trilinear hat.
+#include "voxel_average.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace airmass::detail {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Gauss–Legendre, 4 nodes on [−1, 1]: exact for degree 7, so for U's density (cubic) times what a
+// linear piece gives (cubic); exponentials on parts at most 2 scale heights long (< 1e-5).
+constexpr double kGlX[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
+constexpr double kGlW[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
+
+// The triangle of half-width w > 0 (the hat along one axis, projected): (w − |t|)₊ / w².
+double triangle(double t, double w) { return std::max(0.0, w - std::abs(t)) / (w * w); }
+
+// Density of T0 + T1 at u, T_i triangles of half-widths 0 ≤ w0 ≤ w1, w1 > 0. Each triangle is
+// the second difference of the ramp, (x + w)₊ − 2x₊ + (x − w)₊ over w², so their convolution is
+// the second difference in both of x₊³/6: nine terms. Where w0 < 1e-3 w1 the narrow one is
+// taken as a point (the density changes by < 1e-6 of its peak; the differences would cancel).
+double sum_density(double u, double w0, double w1) {
+    if (!(w0 > 1e-3 * w1)) return triangle(u, w1);
+    constexpr double a[3] = {1.0, -2.0, 1.0};
+    double s = 0.0;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            const double x = u + (i - 1) * w0 + (j - 1) * w1;
+            if (x > 0.0) s += a[i] * a[j] * x * x * x;
+        }
+    return std::max(0.0, s / (6.0 * w0 * w0 * w1 * w1));
+}
+
+// ∫_0^1 e^{−zσ} dσ and ∫_0^1 σ e^{−zσ} dσ for z ≥ 0, without cancellation near 0.
+// Both at once (one exponential).
+void e12(double z, double& e1, double& e2) {
+    if (z < 1e-3) {
+        e1 = 1.0 - z * (0.5 - z * (1.0 / 6.0 - z / 24.0));
+        e2 = 0.5 - z * (1.0 / 3.0 - z * (1.0 / 8.0 - z / 30.0));
+        return;
+    }
+    const double ez = std::exp(-z);
+    e1 = (1.0 - ez) / z;
+    e2 = (1.0 - (1.0 + z) * ez) / (z * z);
+}
+
+// log(sinh y / y), y ≥ 0.
+double log_sinhc(double y) {
+    if (y < 0.25) {
+        const double y2 = y * y;
+        return y2 * (1.0 / 6.0 - y2 * (1.0 / 180.0 - y2 * (1.0 / 2835.0 - y2 / 37800.0)));
+    }
+    return y + std::log1p(-std::exp(-2.0 * y)) - std::log(2.0 * y);
+}
+
+// One half of the triangle of half-width w, weight (w − s t) on [t0, t1] (s = +1: t ≥ 0;
+// s = −1: t ≤ 0), times a piece of the profile at altitude h0 + t. Unnormalised (the 1/w²
+// cancels in the ratio voxel_average takes).
+double half_integral(const DensityPieces::Piece& p, double h0, double w, double s, double t0, double t1) {
+    if (!(t1 > t0)) return 0.0;
+    const double L = t1 - t0;
+    if (p.exponential) {
+        const double r0 = std::exp(-(h0 + t0 - p.ref) / p.H);  // the piece's densest point here
+        double f1, f2;
+        e12(L / p.H, f1, f2);
+        return r0 * ((w - s * t0) * L * f1 - s * L * L * f2);
+    }
+    const double C0 = p.c0 + p.c1 * h0, C1 = p.c1;
+    const double sum1 = L * (t1 + t0), sum2 = L * (t1 * t1 + t1 * t0 + t0 * t0);
+    return C0 * w * L + (C1 * w - s * C0) * 0.5 * sum1 - s * C1 * sum2 / 3.0;
+}
+
+// For the closed-form axis, a triangle of half-width w whose centre the voxel's other axes moved
+// to altitude h0: its mass above the ground (inner_mass) and a profile's integral against it
+// over the air (inner_density). Unnormalised (the 1/w² cancels in the ratio).
+double inner_mass(double h0, double w) {
+    const double g = std::max(-h0, -w);  // mass on [max(−h0, −w), w]
+    if (!(g < w)) return 0.0;
+    DensityPieces::Piece one;  // density 1
+    one.c0 = 1.0;
+    return half_integral(one, 0.0, w, -1.0, g, 0.0) + half_integral(one, 0.0, w, 1.0, std::max(g, 0.0), w);
+}
+double inner_density(const DensityPieces& prof, double h0, double w) {
+    const auto& P = prof.pieces;
+    double num = 0.0;
+    // the first piece that can reach the triangle
+    auto it = std::lower_bound(P.begin(), P.end(), h0 - w,
+                               [](const DensityPieces::Piece& p, double x) { return p.hi <= x; });
+    for (; it != P.end() && it->lo < h0 + w; ++it) {
+        const double lo = std::max(std::max(it->lo, 0.0) - h0, -w);
+        const double hi = std::min(std::min(it->hi, prof.top_m) - h0, w);
+        if (!(hi > lo)) continue;
+        num += half_integral(*it, h0, w, -1.0, lo, std::min(hi, 0.0)) +
+               half_integral(*it, h0, w, 1.0, std::max(lo, 0.0), hi);
+    }
+    return num;
+}
+
+// The closed form where the hat lies inside [0, top] and inside one piece; false otherwise.
+bool closed_form(const DensityPieces& prof, double h, double reach, const double* w, double& v) {
+    if (!(h - reach >= 0.0 && h + reach <= prof.top_m)) return false;
+    const auto& P = prof.pieces;
+    auto it = std::lower_bound(P.begin(), P.end(), h - reach,
+                               [](const DensityPieces::Piece& p, double x) { return p.hi <= x; });
+    if (it == P.end() || it->lo >= h + reach) {  // no piece meets the hat
+        v = 0.0;
+        return true;
+    }
+    if (!(it->lo <= h - reach && it->hi >= h + reach)) return false;
+    if (!it->exponential) {
+        v = std::max(0.0, it->c0 + it->c1 * h);
+        return true;
+    }
+    const double k = 0.5 / it->H;
+    v = std::exp(-(h - it->ref) / it->H + 2.0 * (log_sinhc(k * w[0]) + log_sinhc(k * w[1]) + log_sinhc(k * w[2])));
+    return true;
+}
+
+}  // namespace
+
+DensityPieces DensityPieces::of(const DensityProfile& p, double top_m) {
+    DensityPieces out;
+    out.top_m = top_m;
+    auto linear = [&](double a, double da, double b, double db) {
+        if (!(b > a)) return;  // a jump (equal altitudes) has no extent
+        Piece q;
+        q.lo = a;
+        q.hi = b;
+        q.c1 = (db - da) / (b - a);
+        q.c0 = da - q.c1 * a;
+        out.pieces.push_back(q);
+    };
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential: {
+            Piece q;
+            q.lo = -kInf;
+            q.hi = kInf;
+            q.exponential = true;
+            q.ref = p.reference_altitude_m;
+            q.H = p.scale_height_m;
+            out.pieces.push_back(q);
+            break;
+        }
+        case DensityProfile::Kind::tent:
+            linear(p.bottom_m, 0.0, p.peak_m, 1.0);
+            linear(p.peak_m, 1.0, p.top_m, 0.0);
+            break;
+        case DensityProfile::Kind::piecewise_linear:
+            for (std::size_t i = 1; i < p.knots.size(); ++i)
+                linear(p.knots[i - 1].first, std::max(0.0, p.knots[i - 1].second), p.knots[i].first,
+                       std::max(0.0, p.knots[i].second));
+            break;
+        case DensityProfile::Kind::constant: {
+            Piece q;
+            q.lo = p.bottom_m;
+            q.hi = p.top_m > p.bottom_m ? p.top_m : kInf;
+            q.c0 = p.value;
+            out.pieces.push_back(q);
+            break;
+        }
+    }
+    return out;
+}
+
+namespace {
+
+// The widest axis in closed form (inner_*); the other two enter through their sum U, whose
+// density is known exactly (sum_density): one dimension of Gauss–Legendre over U, split wherever
+// the integrand is not smooth — U's density's breakpoints, and where the widest axis' triangle
+// meets the ground, the top or a piece's edge with an end or its peak — and into parts at most
+// 2 scale heights long.
+double general(const DensityPieces& prof, double h, const double* w, double reach) {
+    const double span = w[0] + w[1];
+    if (!(span > 0.0)) {
+        const double den = inner_mass(h, w[2]);
+        return den > 0.0 ? std::max(0.0, inner_density(prof, h, w[2]) / den) : 0.0;
+    }
+    double cut[64];
+    int nc = 0;
+    const auto add = [&](double u) {
+        if (u > -span && u < span && nc < 64) cut[nc++] = u;
+    };
+    cut[nc++] = -span;
+    cut[nc++] = span;
+    for (double u : {w[0] - w[1], w[1] - w[0], -w[0], w[0], -w[1], w[1], 0.0}) add(u);  // U's density's
+    double kmax = 0.0;  // the steepest exponential within reach (1/m)
+    const auto kinks_at = [&](double k) {  // altitude k: where the inner triangle's ends and peak meet it
+        for (double d : {-w[2], 0.0, w[2]}) add(k - h + d);
+    };
+    kinks_at(0.0);
+    kinks_at(prof.top_m);
+    for (const auto& p : prof.pieces) {
+        if (p.hi < h - reach || p.lo > h + reach) continue;
+        if (std::isfinite(p.lo)) kinks_at(p.lo);
+        if (std::isfinite(p.hi)) kinks_at(p.hi);
+        if (p.exponential) kmax = std::max(kmax, 1.0 / p.H);
+    }
+    std::sort(cut, cut + nc);
+    double num = 0.0, den = 0.0;
+    for (int i = 1; i < nc; ++i) {
+        const double a = cut[i - 1], b = cut[i];
+        if (!(b > a)) continue;
+        const int parts = std::max(1, int(std::ceil((b - a) * kmax / 2.0)));
+        for (int q = 0; q < parts; ++q) {
+            const double lo = a + (b - a) * q / parts, hi = a + (b - a) * (q + 1) / parts;
+            const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+            for (int k = 0; k < 4; ++k) {
+                const double u = mid + half * kGlX[k];
+                const double wt = half * kGlW[k] * sum_density(u, w[0], w[1]);
+                if (!(wt > 0.0)) continue;
+                den += wt * inner_mass(h + u, w[2]);
+                num += wt * inner_density(prof, h + u, w[2]);
+            }
+        }
+    }
+    return den > 0.0 ? std::max(0.0, num / den) : 0.0;
+}
+
+}  // namespace
+
+void voxel_averages(std::span<const DensityPieces* const> profs, double h, const Vec3<double>& n, double voxel_m,
+                    std::span<double> out) {
+    double w[3] = {std::abs(n.x) * voxel_m, std::abs(n.y) * voxel_m, std::abs(n.z) * voxel_m};
+    std::sort(w, w + 3);  // w[2] the widest
+    const double reach = w[0] + w[1] + w[2];
+    for (std::size_t c = 0; c < profs.size(); ++c) {
+        out[c] = 0.0;
+        if (!profs[c] || !(h + reach > 0.0)) continue;  // none asked, or the whole hat below the ground
+        if (!closed_form(*profs[c], h, reach, w, out[c])) out[c] = general(*profs[c], h, w, reach);
+    }
+}
+
+double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m) {
+    const DensityPieces* one[1] = {&prof};
+    double v[1];
+    voxel_averages(one, h, n, voxel_m, v);
+    return v[0];
+}
+
+}  // namespace airmass::detail
