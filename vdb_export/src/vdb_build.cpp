@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "airmass/parallel.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/vdb_grids.hpp"
 #include "vdb_format.hpp"
@@ -30,12 +31,14 @@ openvdb::FloatGrid::Ptr empty_grid(const VdbLayout& layout, const std::string& n
 
 // Guard voxels (kVolumeGuardValue; airmass/volume.hpp, docs/vdb.md "Tiling") of constituent c:
 // every active voxel of another tile within one voxel (26 neighbours) of a value of tile t
-// joins tile t's grid. Found first, set after, so guards never beget guards.
-void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& plan) {
+// joins tile t's grid. Found first, set after, so guards never beget guards. Both passes run
+// over the tiles in parallel (`threads` workers): the first only reads the grids, the second
+// writes tile t's grid alone, each tile's guards in the order the serial loop set them.
+void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& plan, int threads) {
     std::vector<std::vector<openvdb::Coord>> guards(tiles.size());
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
+    parallel_for_each(tiles.size(), threads, [&](std::size_t t) {
         const auto& grid = tiles[t].grids[c];
-        if (!grid) continue;
+        if (!grid) return;
         for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
             const openvdb::Coord o = leaf->origin();
             std::array<const LeafT*, 27> near{};  // by (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)
@@ -69,12 +72,12 @@ void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& pl
                         }
             }
         }
-    }
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
-        if (guards[t].empty()) continue;
+    });
+    parallel_for_each(tiles.size(), threads, [&](std::size_t t) {
+        if (guards[t].empty()) return;
         auto acc = tiles[t].grids[c]->getAccessor();
         for (const auto& q : guards[t]) acc.setValueOn(q, kVolumeGuardValue);
-    }
+    });
 }
 
 // Moves tile t's grids onto its own index lattice (VolumePlan::index_offset o; docs/vdb.md
@@ -171,8 +174,10 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
             for (std::size_t c = 0; c < nc; ++c)
                 if (const auto& g = volume.tiles[t].grids[c])
                     values_of[t * nc + c] = {g->activeVoxelCount(), g->evalActiveVoxelBoundingBox()};
-        for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan);
-        for (std::size_t t = 0; t < n_tiles; ++t) shift_tile(volume.tiles[t], plan.index_offset(t), layout.voxel_size);
+        for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan, run.threads);
+        // Each tile's grids are its own: the tiles shift in parallel (the user's thread count).
+        parallel_for_each(n_tiles, run.threads,
+                          [&](std::size_t t) { shift_tile(volume.tiles[t], plan.index_offset(t), layout.voxel_size); });
     }
     grids.clear();
 
