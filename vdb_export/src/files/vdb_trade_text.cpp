@@ -1,6 +1,6 @@
 // The voxel-size trade's tables as text (airmass/vdb_trade.hpp): CSV and Markdown of a
-// VdbTradeResult. OpenVDB-free (library airmass_vdb_files): `airmass report vdb` formats here
-// what the OpenVDB module measured.
+// VdbTradeResult, and the run's list of tolerances and progress steps. OpenVDB-free (library
+// airmass_vdb_files): `airmass report vdb` formats here what the OpenVDB module measured.
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
@@ -52,6 +52,19 @@ void rows_by_rays(std::ostringstream& o, const std::vector<Record>& records, Key
 }
 
 }  // namespace
+
+std::vector<double> vdb_trade_tolerances(const VdbTradeOptions& options) {
+    if (options.tolerances.empty()) return {};
+    std::vector<double> t = options.tolerances;
+    t.push_back(0.0);
+    std::sort(t.begin(), t.end());
+    t.erase(std::unique(t.begin(), t.end()), t.end());
+    return t;
+}
+
+std::size_t vdb_trade_steps(const VdbTradeOptions& options) {
+    return options.voxel_sizes.size() + vdb_trade_tolerances(options).size();
+}
 
 std::string vdb_trade_rays_csv(const VdbTradeResult& r) {
     std::ostringstream o;
