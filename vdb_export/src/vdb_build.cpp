@@ -4,6 +4,7 @@
 // FAQ recommends for multithreaded writes: no shared accessor, no locks). The tiles, the
 // grids' boxes and the limits are the plan's (make_volume_plan), so a host that copies
 // sample_volume_box's dense blocks into its own grids gets exactly these grids.
+#include <array>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
@@ -95,7 +96,26 @@ void shift_tile(VdbTile& tile, const VoxelCoord& o, double voxel_size) {
         if (!g) continue;
         auto tree = std::make_shared<openvdb::FloatTree>(0.0f);
         openvdb::tree::ValueAccessor<openvdb::FloatTree> acc(*tree);
-        for (auto it = g->tree().cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() - d, *it);
+        if (g->tree().activeTileCount() > 0) {  // not made here (leaves only); kept general
+            for (auto it = g->tree().cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() - d, *it);
+        } else {
+            // Leaf by leaf: a leaf's voxels land in at most 8 leaves of the new tree, each
+            // made (as the accessor's setValueOn makes it) when its first voxel arrives.
+            const int mask = ~int(LeafT::DIM - 1);
+            for (auto leaf = g->tree().cbeginLeaf(); leaf; ++leaf) {
+                const openvdb::Coord first = leaf->origin() - d;  // where voxel (0, 0, 0) lands
+                const openvdb::Coord low(first.x() & mask, first.y() & mask, first.z() & mask);
+                std::array<LeafT*, 8> to{};  // by (x beyond low) + 2 (y) + 4 (z)
+                for (auto v = leaf->cbeginValueOn(); v; ++v) {
+                    const openvdb::Coord q = v.getCoord() - d;
+                    const std::size_t k = std::size_t(((q.x() & mask) != low.x() ? 1 : 0) +
+                                                      ((q.y() & mask) != low.y() ? 2 : 0) +
+                                                      ((q.z() & mask) != low.z() ? 4 : 0));
+                    if (!to[k]) to[k] = acc.touchLeaf(q);
+                    to[k]->setValueOn(q, *v);
+                }
+            }
+        }
         g->setTree(tree);
         g->setTransform(openvdb::math::Transform::createLinearTransform(m));
     }
