@@ -190,10 +190,11 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
         // The plan's values (checked below need the values' boxes and counts): taken before
         // the guards join.
         values_of.resize(n_tiles * nc);
-        for (std::size_t t = 0; t < n_tiles; ++t)
+        parallel_for_each(n_tiles, run.threads, [&](std::size_t t) {
             for (std::size_t c = 0; c < nc; ++c)
                 if (const auto& g = volume.tiles[t].grids[c])
                     values_of[t * nc + c] = {g->activeVoxelCount(), g->evalActiveVoxelBoundingBox()};
+        });
         for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan, run.threads);
         // Each tile's grids are its own: the tiles shift in parallel (the user's thread count).
         parallel_for_each(n_tiles, run.threads,
@@ -203,6 +204,24 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
 
     // 4. Metadata, and the statistics: the plan's, with the trees' real memory. The trees
     //    must hold exactly the plan's grids (a check of the one implementation, not a guess).
+    //    Each grid's metadata, box and memory first, in parallel over the tiles; then the checks.
+    struct GridFacts {
+        openvdb::CoordBBox all;  // active voxels, values and guards, in the common lattice
+        openvdb::Index64 memory = 0;
+    };
+    std::vector<GridFacts> facts(volume.tiles.size() * nc);
+    parallel_for_each(volume.tiles.size(), run.threads, [&](std::size_t t) {
+        const VoxelCoord o = plan.index_offset(t);
+        for (std::size_t c = 0; c < nc; ++c) {
+            const auto& g = volume.tiles[t].grids[c];
+            if (!g) continue;
+            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size(), o));
+            GridFacts& f = facts[t * nc + c];
+            f.all = g->evalActiveVoxelBoundingBox();  // in the tile's lattice
+            f.all.translate(openvdb::Coord(o[0], o[1], o[2]));
+            f.memory = g->memUsage();
+        }
+    });
     VdbStats s = plan.stats;
     s.memory_bytes = 0;
     std::size_t gi = 0;
@@ -210,12 +229,9 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
         for (std::size_t c = 0; c < nc; ++c) {
             const auto& g = volume.tiles[t].grids[c];
             if (!g) continue;
-            const VoxelCoord o = plan.index_offset(t);
-            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size(), o));
             if (gi >= s.grids.size()) throw std::logic_error("vdb_export: more grids than the volume plan lists");
             VdbGridStats& gs = s.grids[gi++];
-            openvdb::CoordBBox all = g->evalActiveVoxelBoundingBox();  // in the tile's lattice
-            all.translate(openvdb::Coord(o[0], o[1], o[2]));
+            const openvdb::CoordBBox& all = facts[t * nc + c].all;
             const auto [active, bb] = values_of.empty() ? std::make_pair(g->activeVoxelCount(), all) : values_of[t * nc + c];
             const std::array<std::int32_t, 6> box{bb.min().x(), bb.min().y(), bb.min().z(),
                                                   bb.max().x(), bb.max().y(), bb.max().z()};
@@ -225,7 +241,7 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
             if (gs.name != g->getName() || gs.tile != t || gs.active_voxels != active || gs.bbox != box || !in_dense)
                 throw std::logic_error("vdb_export: grid '" + g->getName() + "' of tile " + std::to_string(t) +
                                        " differs from the volume plan");
-            gs.memory_bytes = g->memUsage();
+            gs.memory_bytes = facts[t * nc + c].memory;
             s.memory_bytes += gs.memory_bytes;
         }
     }
