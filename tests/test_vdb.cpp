@@ -1139,6 +1139,41 @@ TEST(VdbTrade, InactiveCellsRemoveAtMostTheTolerancePerConstituent) {
     EXPECT_EQ(vdb_tolerance_rays_csv(r).find("tolerance,voxel_size_km,ray,"), 0u);
 }
 
+// The tolerances the trade measures and the steps its progress counts (what `airmass report vdb`
+// sizes its bar by): 0 once and first, repeats once; the run reports exactly those steps. The
+// slab the voxel-size part built at the trade's voxel size and tolerance is the tolerance part's
+// row at that tolerance: the same optical depths and the same grids' cost.
+TEST(VdbTrade, ProgressCountsTheMeasuredTolerancesOnce) {
+    const Scene scene = load_preset("earth");
+    VdbTradeOptions t;
+    t.voxel_sizes = {8.0};
+    t.measure_view_region = false;
+    t.tolerances = {1e-2, t.tolerance, 1e-2, 0.0};  // unsorted, repeated, 0 listed
+    t.tolerance_voxel_size = 8.0;
+    const std::vector<double> want{0.0, t.tolerance, 1e-2};
+    EXPECT_EQ(vdb_trade_tolerances(t), want);
+    EXPECT_EQ(vdb_trade_steps(t), 4u);  // 1 voxel size + 3 tolerances (not 1 + 4 + 1)
+    std::vector<double> seen;
+    t.progress = [&](double f) { seen.push_back(f); };
+    const auto r = run_vdb_trade(scene, t);
+    EXPECT_EQ(seen, (std::vector<double>{0.25, 0.5, 0.75, 1.0}));
+    const std::size_t n_rays = vdb_trade_rays(scene).size();
+    ASSERT_EQ(r.rays.size(), n_rays);
+    ASSERT_EQ(r.tolerance_rays.size(), 3 * n_rays);
+    ASSERT_EQ(r.costs.size(), 1u);
+    ASSERT_EQ(r.tolerance_costs.size(), 3u);
+    for (std::size_t i = 0; i < n_rays; ++i) {
+        SCOPED_TRACE(r.rays[i].ray);
+        EXPECT_EQ(r.tolerance_rays[n_rays + i].tolerance, t.tolerance);
+        EXPECT_EQ(r.tolerance_rays[n_rays + i].tau_vdb, r.rays[i].tau_vdb);
+    }
+    EXPECT_EQ(r.tolerance_costs[1].active_voxels, r.costs[0].active_voxels);
+    EXPECT_GT(r.tolerance_costs[0].active_voxels, r.tolerance_costs[1].active_voxels);
+    t.tolerances.clear();
+    EXPECT_TRUE(vdb_trade_tolerances(t).empty());
+    EXPECT_EQ(vdb_trade_steps(t), 1u);
+}
+
 TEST(VdbTrade, ToleranceTradeRefusesBadInputWithTheFieldName) {
     const Scene scene = load_preset("earth");
     VdbTradeOptions t;

@@ -295,10 +295,11 @@ int32_t airmass_sun_column_table(const airmass_scene_spec* spec, const airmass_v
     return guarded(message, message_size, [&] {
         const airmass::VdbOptions vdb = vdb_options_from(options);
         const Scene scene = build_scene(spec);
-        const std::size_t count = airmass::resolve_vdb_layout(scene, vdb).constituents.size();
+        const airmass::VdbLayout layout = airmass::resolve_vdb_layout(scene, vdb);  // once: the count and the table
+        const std::size_t count = layout.constituents.size();
         check_sun_table_buffer("sun column table", mu_size, r_size, values, float_count, count,
                                (std::to_string(count) + " constituents").c_str());
-        const airmass::SunColumnTable table = airmass::sun_column_table(scene, vdb, mu_size, r_size);
+        const airmass::SunColumnTable table = airmass::sun_column_table(scene, layout, mu_size, r_size);
         std::copy(table.mass.begin(), table.mass.end(), values);
     });
 }

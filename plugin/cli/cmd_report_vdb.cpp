@@ -79,7 +79,7 @@ void add_report_vdb(CLI::App& report) {
         CancelFlag cancel;
         InterruptGuard guard(cancel);
         t.cancel = &cancel;
-        const std::size_t steps = t.voxel_sizes.size() + (t.tolerances.empty() ? 0 : t.tolerances.size() + 1);
+        const std::size_t steps = vdb_trade_steps(t);  // the library's count: tolerances de-duplicated, 0 once
         ProgressBar bar("report vdb", steps, stderr_is_terminal() && !o->quiet);
         std::size_t shown = 0;
         t.progress = [&](double f) {

@@ -4,10 +4,12 @@
 // FAQ recommends for multithreaded writes: no shared accessor, no locks). The tiles, the
 // grids' boxes and the limits are the plan's (make_volume_plan), so a host that copies
 // sample_volume_box's dense blocks into its own grids gets exactly these grids.
+#include <array>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
 
+#include "airmass/parallel.hpp"
 #include "airmass/progress.hpp"
 #include "airmass/vdb_grids.hpp"
 #include "vdb_format.hpp"
@@ -30,12 +32,14 @@ openvdb::FloatGrid::Ptr empty_grid(const VdbLayout& layout, const std::string& n
 
 // Guard voxels (kVolumeGuardValue; airmass/volume.hpp, docs/vdb.md "Tiling") of constituent c:
 // every active voxel of another tile within one voxel (26 neighbours) of a value of tile t
-// joins tile t's grid. Found first, set after, so guards never beget guards.
-void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& plan) {
+// joins tile t's grid. Found first, set after, so guards never beget guards. Both passes run
+// over the tiles in parallel (`threads` workers): the first only reads the grids, the second
+// writes tile t's grid alone, each tile's guards in the order the serial loop set them.
+void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& plan, int threads) {
     std::vector<std::vector<openvdb::Coord>> guards(tiles.size());
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
+    parallel_for_each(tiles.size(), threads, [&](std::size_t t) {
         const auto& grid = tiles[t].grids[c];
-        if (!grid) continue;
+        if (!grid) return;
         for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
             const openvdb::Coord o = leaf->origin();
             std::array<const LeafT*, 27> near{};  // by (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)
@@ -69,12 +73,12 @@ void add_guards(std::vector<VdbTile>& tiles, std::size_t c, const VolumePlan& pl
                         }
             }
         }
-    }
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
-        if (guards[t].empty()) continue;
+    });
+    parallel_for_each(tiles.size(), threads, [&](std::size_t t) {
+        if (guards[t].empty()) return;
         auto acc = tiles[t].grids[c]->getAccessor();
         for (const auto& q : guards[t]) acc.setValueOn(q, kVolumeGuardValue);
-    }
+    });
 }
 
 // Moves tile t's grids onto its own index lattice (VolumePlan::index_offset o; docs/vdb.md
@@ -92,7 +96,26 @@ void shift_tile(VdbTile& tile, const VoxelCoord& o, double voxel_size) {
         if (!g) continue;
         auto tree = std::make_shared<openvdb::FloatTree>(0.0f);
         openvdb::tree::ValueAccessor<openvdb::FloatTree> acc(*tree);
-        for (auto it = g->tree().cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() - d, *it);
+        if (g->tree().activeTileCount() > 0) {  // not made here (leaves only); kept general
+            for (auto it = g->tree().cbeginValueOn(); it; ++it) acc.setValueOn(it.getCoord() - d, *it);
+        } else {
+            // Leaf by leaf: a leaf's voxels land in at most 8 leaves of the new tree, each
+            // made (as the accessor's setValueOn makes it) when its first voxel arrives.
+            const int mask = ~int(LeafT::DIM - 1);
+            for (auto leaf = g->tree().cbeginLeaf(); leaf; ++leaf) {
+                const openvdb::Coord first = leaf->origin() - d;  // where voxel (0, 0, 0) lands
+                const openvdb::Coord low(first.x() & mask, first.y() & mask, first.z() & mask);
+                std::array<LeafT*, 8> to{};  // by (x beyond low) + 2 (y) + 4 (z)
+                for (auto v = leaf->cbeginValueOn(); v; ++v) {
+                    const openvdb::Coord q = v.getCoord() - d;
+                    const std::size_t k = std::size_t(((q.x() & mask) != low.x() ? 1 : 0) +
+                                                      ((q.y() & mask) != low.y() ? 2 : 0) +
+                                                      ((q.z() & mask) != low.z() ? 4 : 0));
+                    if (!to[k]) to[k] = acc.touchLeaf(q);
+                    to[k]->setValueOn(q, *v);
+                }
+            }
+        }
         g->setTree(tree);
         g->setTransform(openvdb::math::Transform::createLinearTransform(m));
     }
@@ -167,17 +190,38 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
         // The plan's values (checked below need the values' boxes and counts): taken before
         // the guards join.
         values_of.resize(n_tiles * nc);
-        for (std::size_t t = 0; t < n_tiles; ++t)
+        parallel_for_each(n_tiles, run.threads, [&](std::size_t t) {
             for (std::size_t c = 0; c < nc; ++c)
                 if (const auto& g = volume.tiles[t].grids[c])
                     values_of[t * nc + c] = {g->activeVoxelCount(), g->evalActiveVoxelBoundingBox()};
-        for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan);
-        for (std::size_t t = 0; t < n_tiles; ++t) shift_tile(volume.tiles[t], plan.index_offset(t), layout.voxel_size);
+        });
+        for (std::size_t c = 0; c < nc; ++c) add_guards(volume.tiles, c, plan, run.threads);
+        // Each tile's grids are its own: the tiles shift in parallel (the user's thread count).
+        parallel_for_each(n_tiles, run.threads,
+                          [&](std::size_t t) { shift_tile(volume.tiles[t], plan.index_offset(t), layout.voxel_size); });
     }
     grids.clear();
 
     // 4. Metadata, and the statistics: the plan's, with the trees' real memory. The trees
     //    must hold exactly the plan's grids (a check of the one implementation, not a guess).
+    //    Each grid's metadata, box and memory first, in parallel over the tiles; then the checks.
+    struct GridFacts {
+        openvdb::CoordBBox all;  // active voxels, values and guards, in the common lattice
+        openvdb::Index64 memory = 0;
+    };
+    std::vector<GridFacts> facts(volume.tiles.size() * nc);
+    parallel_for_each(volume.tiles.size(), run.threads, [&](std::size_t t) {
+        const VoxelCoord o = plan.index_offset(t);
+        for (std::size_t c = 0; c < nc; ++c) {
+            const auto& g = volume.tiles[t].grids[c];
+            if (!g) continue;
+            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size(), o));
+            GridFacts& f = facts[t * nc + c];
+            f.all = g->evalActiveVoxelBoundingBox();  // in the tile's lattice
+            f.all.translate(openvdb::Coord(o[0], o[1], o[2]));
+            f.memory = g->memUsage();
+        }
+    });
     VdbStats s = plan.stats;
     s.memory_bytes = 0;
     std::size_t gi = 0;
@@ -185,12 +229,9 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
         for (std::size_t c = 0; c < nc; ++c) {
             const auto& g = volume.tiles[t].grids[c];
             if (!g) continue;
-            const VoxelCoord o = plan.index_offset(t);
-            detail::insert_metadata(*g, volume_grid_metadata(layout, c, t, volume.tiles.size(), o));
             if (gi >= s.grids.size()) throw std::logic_error("vdb_export: more grids than the volume plan lists");
             VdbGridStats& gs = s.grids[gi++];
-            openvdb::CoordBBox all = g->evalActiveVoxelBoundingBox();  // in the tile's lattice
-            all.translate(openvdb::Coord(o[0], o[1], o[2]));
+            const openvdb::CoordBBox& all = facts[t * nc + c].all;
             const auto [active, bb] = values_of.empty() ? std::make_pair(g->activeVoxelCount(), all) : values_of[t * nc + c];
             const std::array<std::int32_t, 6> box{bb.min().x(), bb.min().y(), bb.min().z(),
                                                   bb.max().x(), bb.max().y(), bb.max().z()};
@@ -200,7 +241,7 @@ VdbVolume build_vdb_volume(const VdbLayout& layout, const VdbRunOptions& run) {
             if (gs.name != g->getName() || gs.tile != t || gs.active_voxels != active || gs.bbox != box || !in_dense)
                 throw std::logic_error("vdb_export: grid '" + g->getName() + "' of tile " + std::to_string(t) +
                                        " differs from the volume plan");
-            gs.memory_bytes = g->memUsage();
+            gs.memory_bytes = facts[t * nc + c].memory;
             s.memory_bytes += gs.memory_bytes;
         }
     }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "airmass/geometry.hpp"
@@ -83,6 +84,12 @@ double grid_column(const openvdb::FloatGrid& grid, const Vec3d& o, const Vec3d& 
     return sum;
 }
 
+// Constituents with a grid in a one-tile volume.
+std::size_t grid_count(const VdbVolume& vol) {
+    return std::size_t(
+        std::count_if(vol.tiles[0].grids.begin(), vol.tiles[0].grids.end(), [](const auto& g) { return bool(g); }));
+}
+
 // Builds and writes `o` to `scratch` (timed by export_vdb), then removes the files.
 VdbStats timed_write(const Scene& scene, const VdbOptions& o, const fs::path& scratch, const CancelFlag* cancel) {
     VdbRunOptions run;
@@ -123,10 +130,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         for (double t : options.tolerances)
             if (!(std::isfinite(t) && t >= 0))
                 throw VdbError("report vdb: --tolerances: " + detail::fmt(t) + ": every tolerance must be a finite optical depth >= 0");
-        tolerances = options.tolerances;
-        tolerances.push_back(0.0);
-        std::sort(tolerances.begin(), tolerances.end());
-        tolerances.erase(std::unique(tolerances.begin(), tolerances.end()), tolerances.end());
+        tolerances = vdb_trade_tolerances(options);
     }
     const auto rays = vdb_trade_rays(scene);
     const fs::path scratch_dir = options.scratch_dir.empty() ? fs::temp_directory_path() : options.scratch_dir;
@@ -240,19 +244,28 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
             cost_of("view-200km", view, s);
         }
     };
-    const std::size_t steps = options.voxel_sizes.size() + (tolerances.empty() ? 0 : tolerances.size());
+    const std::size_t steps = vdb_trade_steps(options);
     std::size_t done = 0;
     auto step_done = [&] {
         if (options.progress) options.progress(double(++done) / double(steps));
     };
     VdbRunOptions run;
     run.cancel = options.cancel;
+    // The slab the voxel-size part builds at the tolerance trade's voxel size and its own
+    // tolerance is the one the tolerance part would build again: its optical depths (and grid
+    // count) are kept and used there.
+    std::optional<std::vector<std::array<double, 3>>> shared_tau;
+    std::size_t shared_grids = 0;
 
     for (const double v : options.voxel_sizes) {
         if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
         slab.voxel_size = v;
         const VdbVolume vol = build_vdb_volume(scene, slab, run);
         const auto tau = slab_tau(vol, v);
+        if (!tolerances.empty() && v == options.tolerance_voxel_size && !shared_tau) {
+            shared_tau = tau;
+            shared_grids = grid_count(vol);
+        }
         for (std::size_t i = 0; i < rays.size(); ++i) {
             VdbTradeRayRow row;
             row.voxel_size = v;
@@ -276,15 +289,22 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         std::vector<std::array<double, 3>> keep_all;
         for (const double tol : tolerances) {
             if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
-            VdbOptions o = slab;
-            o.voxel_size = v;
-            o.tolerance = tol;
-            const VdbVolume vol = build_vdb_volume(scene, o, run);
-            const auto tau = slab_tau(vol, v);
+            std::vector<std::array<double, 3>> tau;
+            std::size_t grids = 0;
+            if (shared_tau && tol == options.tolerance) {
+                tau = *shared_tau;
+                grids = shared_grids;
+            } else {
+                VdbOptions o = slab;
+                o.voxel_size = v;
+                o.tolerance = tol;
+                const VdbVolume vol = build_vdb_volume(scene, o, run);
+                tau = slab_tau(vol, v);
+                grids = grid_count(vol);
+            }
             if (tol == 0.0) {
                 keep_all = tau;
-                result.constituents = std::size_t(
-                    std::count_if(vol.tiles[0].grids.begin(), vol.tiles[0].grids.end(), [](const auto& g) { return bool(g); }));
+                result.constituents = grids;
             }
             for (std::size_t i = 0; i < rays.size(); ++i) {
                 VdbToleranceRayRow row;

@@ -92,6 +92,13 @@ struct VdbTradeResult {
 
 VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options);
 
+// The tolerances run_vdb_trade measures: 0 (the baseline) first, then options.tolerances
+// ascending, each once; none when options.tolerances is empty. (Finite values ≥ 0: the run
+// refuses others before this.)
+std::vector<double> vdb_trade_tolerances(const VdbTradeOptions& options);
+// The steps run_vdb_trade's progress counts: one per voxel size, one per measured tolerance.
+std::size_t vdb_trade_steps(const VdbTradeOptions& options);
+
 // vdb_trade_rays.csv, vdb_trade_costs.csv and the Markdown tables of docs/vdb.md; the
 // threshold's: vdb_tolerance_rays.csv, vdb_tolerance_costs.csv and their Markdown (empty when
 // not measured).

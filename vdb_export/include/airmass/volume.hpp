@@ -461,6 +461,9 @@ struct SunColumnTable {
 };
 // mu_size, r_size in [2, 4096] (VdbError naming them otherwise).
 SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size);
+// The same with the layout already resolved (resolve_vdb_layout(scene, options)): a caller
+// that needs the layout too resolves it once.
+SunColumnTable sun_column_table(const Scene& scene, const VdbLayout& layout, int mu_size, int r_size);
 
 // The multiple scattering of the same lighting: Hillaire's (2020) isotropic Ψ(altitude, sun zenith)
 // (multiple_scattering.hpp, MsMode::isotropic_lut: every order ≥ 2, the sunlit ground included)

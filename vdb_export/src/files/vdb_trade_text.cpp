@@ -1,6 +1,6 @@
 // The voxel-size trade's tables as text (airmass/vdb_trade.hpp): CSV and Markdown of a
-// VdbTradeResult. OpenVDB-free (library airmass_vdb_files): `airmass report vdb` formats here
-// what the OpenVDB module measured.
+// VdbTradeResult, and the run's list of tolerances and progress steps. OpenVDB-free (library
+// airmass_vdb_files): `airmass report vdb` formats here what the OpenVDB module measured.
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
@@ -23,7 +23,48 @@ std::string e2(double x) {
     return b;
 }
 
+// A Markdown table of rows × rays over `records` (each with .ray): one row per value of
+// key(x), one column per ray, both in the order they first appear. `head` opens the header
+// row and is followed by `head_columns` right-aligned columns; row_head(k) opens row k,
+// cell(x) is record x's cell.
+template <class Record, class Key, class RowHead, class Cell>
+void rows_by_rays(std::ostringstream& o, const std::vector<Record>& records, Key key, const std::string& head,
+                  int head_columns, RowHead row_head, Cell cell) {
+    std::vector<std::string> rays;
+    std::vector<double> keys;
+    for (const auto& x : records) {
+        if (std::find(rays.begin(), rays.end(), x.ray) == rays.end()) rays.push_back(x.ray);
+        if (std::find(keys.begin(), keys.end(), key(x)) == keys.end()) keys.push_back(key(x));
+    }
+    o << head;
+    for (const auto& n : rays) o << " " << n << " |";
+    o << "\n|";
+    for (int i = 0; i < head_columns; ++i) o << "---:|";
+    for (std::size_t i = 0; i < rays.size(); ++i) o << "---:|";
+    o << "\n";
+    for (double k : keys) {
+        o << row_head(k);
+        for (const auto& n : rays)
+            for (const auto& x : records)
+                if (key(x) == k && x.ray == n) o << " " << cell(x) << " |";
+        o << "\n";
+    }
+}
+
 }  // namespace
+
+std::vector<double> vdb_trade_tolerances(const VdbTradeOptions& options) {
+    if (options.tolerances.empty()) return {};
+    std::vector<double> t = options.tolerances;
+    t.push_back(0.0);
+    std::sort(t.begin(), t.end());
+    t.erase(std::unique(t.begin(), t.end()), t.end());
+    return t;
+}
+
+std::size_t vdb_trade_steps(const VdbTradeOptions& options) {
+    return options.voxel_sizes.size() + vdb_trade_tolerances(options).size();
+}
 
 std::string vdb_trade_rays_csv(const VdbTradeResult& r) {
     std::ostringstream o;
@@ -83,29 +124,16 @@ std::string vdb_tolerance_rays_csv(const VdbTradeResult& r) {
 std::string vdb_tolerance_markdown(const VdbTradeResult& r, const std::string& scene_name) {
     if (r.tolerance_rays.empty()) return {};
     std::ostringstream o;
-    std::vector<std::string> rays;
-    std::vector<double> tols;
-    for (const auto& x : r.tolerance_rays) {
-        if (std::find(rays.begin(), rays.end(), x.ray) == rays.end()) rays.push_back(x.ray);
-        if (std::find(tols.begin(), tols.end(), x.tolerance) == tols.end()) tols.push_back(x.tolerance);
-    }
     o << "Scene `" << scene_name << "`, " << g4(r.tolerance_voxel_size) << "-km voxels. Optical depth the inactive "
       << "cells remove, τ(0) − τ(tolerance), the largest over R, G, B, through grids on the same lattice (the voxel "
       << "size's own error cancels); bound: the tolerance per constituent (" << r.constituents
-      << " here). In brackets the error against the analytic value, voxel size included.\n\n"
-      << "| tolerance | bound |";
-    for (const auto& n : rays) o << " " << n << " |";
-    o << "\n|---:|---:|";
-    for (std::size_t i = 0; i < rays.size(); ++i) o << "---:|";
-    o << "\n";
-    for (double t : tols) {
-        o << "| " << (t == 0 ? std::string("0 (all)") : g4(t)) << " | " << e2(t * double(r.constituents)) << " |";
-        for (const auto& n : rays)
-            for (const auto& x : r.tolerance_rays)
-                if (x.tolerance == t && x.ray == n)
-                    o << " " << e2(x.tau_removed_max) << " (" << e2(x.tau_rel_error_max) << ") |";
-        o << "\n";
-    }
+      << " here). In brackets the error against the analytic value, voxel size included.\n\n";
+    rows_by_rays(
+        o, r.tolerance_rays, [](const VdbToleranceRayRow& x) { return x.tolerance; }, "| tolerance | bound |", 2,
+        [&](double t) {
+            return "| " + (t == 0 ? std::string("0 (all)") : g4(t)) + " | " + e2(t * double(r.constituents)) + " |";
+        },
+        [](const VdbToleranceRayRow& x) { return e2(x.tau_removed_max) + " (" + e2(x.tau_rel_error_max) + ")"; });
     o << "\nWhat each tolerance costs at " << g4(r.tolerance_voxel_size)
       << "-km voxels (regions as in the voxel-size table).\n\n"
       << "| tolerance | region | active voxels | memory (MiB) | dense (MiB) | file (MiB) | build (s) | write (s) |\n"
@@ -125,27 +153,12 @@ std::string vdb_tolerance_markdown(const VdbTradeResult& r, const std::string& s
 
 std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene_name) {
     std::ostringstream o;
-    std::vector<std::string> rays;
-    std::vector<double> sizes;
-    for (const auto& x : r.rays) {
-        if (std::find(rays.begin(), rays.end(), x.ray) == rays.end()) rays.push_back(x.ray);
-        if (std::find(sizes.begin(), sizes.end(), x.voxel_size) == sizes.end()) sizes.push_back(x.voxel_size);
-    }
     o << "Scene `" << scene_name << "`. Largest error over R, G, B of the optical depth through the grids "
-      << "(trilinear) against the analytic value; in brackets the transmittance error |ΔT|.\n\n"
-      << "| voxel (km) |";
-    for (const auto& n : rays) o << " " << n << " |";
-    o << "\n|---:|";
-    for (std::size_t i = 0; i < rays.size(); ++i) o << "---:|";
-    o << "\n";
-    for (double v : sizes) {
-        o << "| " << g4(v) << " |";
-        for (const auto& n : rays)
-            for (const auto& x : r.rays)
-                if (x.voxel_size == v && x.ray == n)
-                    o << " " << e2(x.tau_rel_error_max) << " (" << e2(x.transmittance_abs_error_max) << ") |";
-        o << "\n";
-    }
+      << "(trilinear) against the analytic value; in brackets the transmittance error |ΔT|.\n\n";
+    rows_by_rays(
+        o, r.rays, [](const VdbTradeRayRow& x) { return x.voxel_size; }, "| voxel (km) |", 1,
+        [](double v) { return "| " + g4(v) + " |"; },
+        [](const VdbTradeRayRow& x) { return e2(x.tau_rel_error_max) + " (" + e2(x.transmittance_abs_error_max) + ")"; });
     o << "\nWhat each voxel size costs: `view-200km` is the Earth view region of a ground camera (60°, 640×360, "
          "200 km), `slab` the box holding the rays above. Dense = what Blender 3.4 allocates (Σ tile boxes × 4 B).\n\n"
       << "| voxel (km) | region | active voxels | memory (MiB) | dense (MiB) | file (MiB) | tiles | build (s) | "

@@ -36,7 +36,11 @@ SunColumnRay sun_column_ray(double planet_radius, double atmosphere_top, double 
 
 SunColumnTable sun_column_table(const Scene& scene, const VdbOptions& options, int mu_size, int r_size) {
     check_sun_table_sizes("sun column table", mu_size, r_size);
-    const VdbLayout layout = resolve_vdb_layout(scene, options);
+    return sun_column_table(scene, resolve_vdb_layout(scene, options), mu_size, r_size);
+}
+
+SunColumnTable sun_column_table(const Scene& scene, const VdbLayout& layout, int mu_size, int r_size) {
+    check_sun_table_sizes("sun column table", mu_size, r_size);
     const Atmosphere atmosphere = compile_atmosphere(scene, layout.rgb_wavelengths_nm);
     const std::size_t n_atm = atmosphere.constituents.size();
 
