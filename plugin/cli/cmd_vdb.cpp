@@ -4,7 +4,7 @@
 //   airmass vdb (--preset NAME | SCENE.toml) -o atmosphere.vdb [--region planet|view|box
 //       --voxel-size L --units km|m --origin surface|center --box X0,Y0,Z0,X1,Y1,Z1
 //       --tolerance TAU --max-dense-mb N --max-memory-mb N --tile-voxels N --max-tiles N
-//       --rgb auto|bruneton|schuler --voxel-values average|point --default-camera --analytic F.json --pov F.inc
+//       --rgb auto|bruneton|schuler --voxel-values auto|average|point --default-camera --analytic F.json --pov F.inc
 //       --df3 STEM --dry-run --json --threads N --quiet]
 //
 // Before writing it prints what Blender 3.4 will pay (active voxels, memory, dense
@@ -35,7 +35,7 @@ namespace {
 
 struct VdbCliOptions {
     std::string scene_path, preset, output, region = "planet", units = "km", origin = "surface", box, rgb = "auto",
-                voxel_values = "average";
+                voxel_values = "auto";
     std::optional<double> voxel_size;
     double tolerance = VdbOptions{}.tolerance;
     double max_dense_mb = VdbOptions{}.max_dense_mb;
@@ -137,9 +137,11 @@ void add_vdb_command(CLI::App& app) {
         ->check(CLI::IsMember({"auto", "bruneton", "schuler"}))
         ->capture_default_str();
     cmd->add_option("--voxel-values", o->voxel_values,
-                    "average: each voxel the density's mean over its trilinear footprint (the grid keeps the "
-                    "atmosphere's mass at any voxel size); point: the density at its centre (docs/vdb.md, Voxel values)")
-        ->check(CLI::IsMember({"average", "point"}))
+                    "average: each voxel the density's mean over its trilinear footprint (rays across a layer keep "
+                    "its mass at any voxel size); point: the density at its centre (exact at the ground); auto: "
+                    "average for a constituent whose thinnest layer is under two voxels, else point (docs/vdb.md, "
+                    "Voxel values)")
+        ->check(CLI::IsMember({"auto", "average", "point"}))
         ->capture_default_str();
     cmd->add_flag("--default-camera", o->default_camera,
                   "--region view on a scene without [camera]: use the default one (ground, +X, 60 deg, 200 km)");
@@ -179,7 +181,9 @@ void add_vdb_command(CLI::App& app) {
         opt.rgb = o->rgb == "bruneton"  ? RgbWavelengths::bruneton
                   : o->rgb == "schuler" ? RgbWavelengths::schuler
                                         : RgbWavelengths::automatic;
-        opt.voxel_values = o->voxel_values == "point" ? VoxelValues::point : VoxelValues::average;
+        opt.voxel_values = o->voxel_values == "point"     ? VoxelValues::point
+                           : o->voxel_values == "average" ? VoxelValues::average
+                                                          : VoxelValues::automatic;
 
         std::optional<tbb::global_control> threads;
         if (o->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(o->threads));

@@ -75,8 +75,10 @@ REQUIRED_KEYS = {
 def exported(airmass_bin, tmp_path_factory):
     d = tmp_path_factory.mktemp("vdb")
     out = d / "atmosphere.vdb"
+    # point values: each voxel the density at its centre (the default `auto` averages Mie at 2 km:
+    # tests/test_vdb.cpp and test_voxel_average.cpp check those means)
     run(airmass_bin, "vdb", "--preset", "earth", "--region", "box", "--box", BOX, "--voxel-size", "2",
-        "-o", out, "--analytic", d / "atmosphere.json", "--pov", d / "atmosphere.inc", "-q")
+        "--voxel-values", "point", "-o", out, "--analytic", d / "atmosphere.json", "--pov", d / "atmosphere.inc", "-q")
     grids, file_meta = vdb.readAll(str(out))
     return d, {g.name: g for g in grids}, file_meta
 
@@ -115,6 +117,7 @@ def test_metadata_is_complete(exported):
         assert meta["airmass:planet_radius"] == pytest.approx(6360.0)
         assert meta["airmass:atmosphere_top"] == pytest.approx(6420.0)
         assert len(meta["airmass:scattering_rgb"]) == 3
+        assert meta["airmass:voxel_values"] == "point"
     # Rayleigh at 550 nm: 1.24062e-6 m^-1 (lambda / 1 um)^-4, per km
     ray = grids["rayleigh"].metadata
     assert ray["airmass:scattering_rgb"][1] == pytest.approx(1.24062e-6 * 0.55**-4 * 1000, rel=1e-12)

@@ -207,10 +207,11 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         return e;
     };
     // Costs: the slab as built and written, then the Earth view region, at voxel v and tolerance tol.
-    auto costs_of = [&](double v, double tol, std::vector<VdbTradeCostRow>& out) {
+    auto costs_of = [&](double v, double tol, VoxelValues values, std::vector<VdbTradeCostRow>& out) {
         auto cost_of = [&](const std::string& region, const VdbOptions& o, const Scene& s) {
             VdbTradeCostRow c;
             c.voxel_size = v;
+            c.voxel_values = values;
             c.tolerance = tol;
             c.region = region;
             try {
@@ -231,6 +232,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         VdbOptions box = slab;
         box.voxel_size = v;
         box.tolerance = tol;
+        box.voxel_values = values;
         cost_of("slab", box, scene);
         if (options.measure_view_region) {
             Scene s = scene;
@@ -239,6 +241,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
             view.region = VdbRegion::view;
             view.voxel_size = v;
             view.tolerance = tol;
+            view.voxel_values = values;
             view.max_dense_mb = 1e9;
             view.max_memory_mb = 8192;
             cost_of("view-200km", view, s);
@@ -257,30 +260,37 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
     std::optional<std::vector<std::array<double, 3>>> shared_tau;
     std::size_t shared_grids = 0;
 
+    // the tolerance part's values: VdbOptions' default (shared with a voxel-size row of the same values)
+    const VoxelValues default_values = VdbOptions{}.voxel_values;
     for (const double v : options.voxel_sizes) {
-        if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
-        slab.voxel_size = v;
-        const VdbVolume vol = build_vdb_volume(scene, slab, run);
-        const auto tau = slab_tau(vol, v);
-        if (!tolerances.empty() && v == options.tolerance_voxel_size && !shared_tau) {
-            shared_tau = tau;
-            shared_grids = grid_count(vol);
+        for (const VoxelValues values : options.voxel_values) {
+            if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
+            slab.voxel_size = v;
+            slab.voxel_values = values;
+            const VdbVolume vol = build_vdb_volume(scene, slab, run);
+            const auto tau = slab_tau(vol, v);
+            if (!tolerances.empty() && v == options.tolerance_voxel_size && values == default_values && !shared_tau) {
+                shared_tau = tau;
+                shared_grids = grid_count(vol);
+            }
+            for (std::size_t i = 0; i < rays.size(); ++i) {
+                VdbTradeRayRow row;
+                row.voxel_size = v;
+                row.voxel_values = values;
+                row.ray = rays[i].name;
+                row.tau_vdb = tau[i];
+                row.tau_ref = tau_ref[i];
+                row.tau_rel_error_max = rel_error(row.tau_vdb, row.tau_ref);
+                for (int k = 0; k < 3; ++k)
+                    row.transmittance_abs_error_max = std::max(row.transmittance_abs_error_max,
+                                                               std::abs(std::exp(-row.tau_vdb[k]) - std::exp(-row.tau_ref[k])));
+                result.rays.push_back(row);
+            }
+            costs_of(v, options.tolerance, values, result.costs);
+            step_done();
         }
-        for (std::size_t i = 0; i < rays.size(); ++i) {
-            VdbTradeRayRow row;
-            row.voxel_size = v;
-            row.ray = rays[i].name;
-            row.tau_vdb = tau[i];
-            row.tau_ref = tau_ref[i];
-            row.tau_rel_error_max = rel_error(row.tau_vdb, row.tau_ref);
-            for (int k = 0; k < 3; ++k)
-                row.transmittance_abs_error_max = std::max(row.transmittance_abs_error_max,
-                                                           std::abs(std::exp(-row.tau_vdb[k]) - std::exp(-row.tau_ref[k])));
-            result.rays.push_back(row);
-        }
-        costs_of(v, options.tolerance, result.costs);
-        step_done();
     }
+    slab.voxel_values = default_values;
 
     // The threshold's trade: the same slab on one lattice for each tolerance, 0 first.
     if (!tolerances.empty()) {
@@ -316,7 +326,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
                 row.tau_rel_error_max = rel_error(tau[i], tau_ref[i]);
                 result.tolerance_rays.push_back(row);
             }
-            costs_of(v, tol, result.tolerance_costs);
+            costs_of(v, tol, default_values, result.tolerance_costs);
             step_done();
         }
     }

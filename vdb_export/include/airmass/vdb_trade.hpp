@@ -42,6 +42,9 @@ std::vector<VdbTradeRay> vdb_trade_rays(const Scene& scene);
 
 struct VdbTradeOptions {
     std::vector<double> voxel_sizes{0.25, 0.5, 1, 2, 4, 8};  // km
+    // What the voxels hold (VdbOptions::voxel_values), each measured at every voxel size; the
+    // tolerance trade uses VdbOptions' default.
+    std::vector<VoxelValues> voxel_values{VoxelValues::automatic, VoxelValues::average, VoxelValues::point};
     double tolerance = VdbOptions{}.tolerance;
     bool measure_view_region = true;      // build and write the Earth view region per voxel size
     // The threshold's trade: tolerances (optical depth, ≥ 0; 0 is the baseline and is measured
@@ -55,6 +58,7 @@ struct VdbTradeOptions {
 
 struct VdbTradeRayRow {
     double voxel_size = 0;  // km
+    VoxelValues voxel_values = VoxelValues::average;
     std::string ray;
     std::array<double, 3> tau_ref{}, tau_vdb{};  // RGB optical depth
     double tau_rel_error_max = 0;                 // max over RGB of |τ_vdb − τ_ref| / τ_ref
@@ -63,6 +67,7 @@ struct VdbTradeRayRow {
 
 struct VdbTradeCostRow {
     double voxel_size = 0;  // km
+    VoxelValues voxel_values = VoxelValues::average;
     double tolerance = 0;   // VdbOptions::tolerance of the build
     std::string region;     // "slab" or "view-200km"
     bool refused = false;   // the exporter refused (limit); message in `note`

@@ -69,17 +69,21 @@ std::string_view length_unit_name(LengthUnit u);  // "km", "m"
 double metres_per_unit(LengthUnit u);              // 1000, 1
 std::string_view region_name(VdbRegion r);         // "planet", "view", "box"
 
-// What a voxel holds (docs/vdb.md, "Voxel values").
+// What a voxel holds (docs/vdb.md, "Voxel values"; `airmass report vdb` measures both).
 enum class VoxelValues {
+    // Per constituent: average where the voxel is more than half its thinnest layer
+    // (profile_feature_m), point otherwise.
+    automatic,
     // The density's mean over the voxel's trilinear hat, in the air above the ground: the
-    // renderer's trilinear reconstruction then carries the atmosphere's mass at any voxel size.
+    // renderer's trilinear reconstruction then carries the atmosphere's mass at any voxel size
+    // (rays across the layer: 8-km voxels 0.3 % instead of 27 %), at the cost of the density
+    // right at the ground (a ray along the ground: 20 % instead of 2e-5).
     average,
-    // The density at the voxel's index point (before 2026-12-07 the only choice): the
-    // reconstruction puts the profile's chords in place of its curve, biased when a voxel
-    // spans a good part of a scale height (docs/vdb.md measures both).
+    // The density at the voxel's index point (before 2026-12-07 the only choice): exact at the
+    // nodes, the reconstruction's chords in place of the profile's curve between them.
     point,
 };
-std::string_view voxel_values_name(VoxelValues v);  // "average", "point"
+std::string_view voxel_values_name(VoxelValues v);  // "auto", "average", "point"
 
 struct VdbOptions {
     VdbRegion region = VdbRegion::planet;
@@ -104,7 +108,7 @@ struct VdbOptions {
     int tile_voxels = 0;
     int max_tiles = 256;
     RgbWavelengths rgb = RgbWavelengths::automatic;
-    VoxelValues voxel_values = VoxelValues::average;
+    VoxelValues voxel_values = VoxelValues::automatic;
 };
 
 // Automatic voxel size in `unit` (docs/vdb.md, "Voxel size"): half the thinnest layer
@@ -153,6 +157,7 @@ struct VdbConstituent {
     double density_threshold = 0;            // cells with rho < threshold stay inactive
     double band_min_m = 0, band_max_m = 0;   // altitude band that may hold active cells
     double density_max = 0;                  // max of the profile over [0, atmosphere top]
+    VoxelValues values = VoxelValues::point;  // what its voxels hold (VdbOptions::voxel_values resolved)
 };
 
 // The camera of the view region, in the unit's world frame.

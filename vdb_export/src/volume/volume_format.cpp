@@ -92,7 +92,6 @@ void add_common(std::vector<VolumeMetadatum>& m, const VdbLayout& layout) {
     m.push_back({"airmass:planet_center", vec3(layout.planet_center)});
     m.push_back({"airmass:atmosphere_top", layout.atmosphere_top});
     m.push_back({"airmass:voxel_size", layout.voxel_size});
-    m.push_back({"airmass:voxel_values", std::string(voxel_values_name(layout.options.voxel_values))});
     m.push_back({"airmass:spectral_basis", layout.spectral_basis});
     m.push_back({"airmass:rgb_wavelengths_nm", layout.rgb_wavelengths_nm});
     m.push_back({"airmass:region", std::string(region_name(layout.options.region))});
@@ -114,6 +113,7 @@ std::vector<VolumeMetadatum> volume_grid_metadata(const VdbLayout& layout, std::
     m.push_back({"airmass:g", c.source->phase.g});
     m.push_back({"airmass:density_threshold", c.density_threshold});
     m.push_back({"airmass:density_max", c.density_max});
+    m.push_back({"airmass:voxel_values", std::string(voxel_values_name(c.values))});
     m.push_back({"airmass:tile", std::int32_t(tile)});
     m.push_back({"airmass:tile_count", std::int32_t(tile_count)});
     // Several tiles: this grid's voxel (i, j, k) is voxel (i, j, k) + airmass:index_offset of the

@@ -64,7 +64,14 @@ std::string_view region_name(VdbRegion r) {
     }
     return "?";
 }
-std::string_view voxel_values_name(VoxelValues v) { return v == VoxelValues::average ? "average" : "point"; }
+std::string_view voxel_values_name(VoxelValues v) {
+    switch (v) {
+        case VoxelValues::automatic: return "auto";
+        case VoxelValues::average: return "average";
+        case VoxelValues::point: return "point";
+    }
+    return "?";
+}
 
 namespace {
 
@@ -372,8 +379,14 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
     // Altitude bands; the ground margin lets trilinear interpolation reach the surface.
     const double ground_margin_m = std::sqrt(3.0) * v * r.L;
     const double thickness_m = scene.planet.atmosphere_top_m - scene.planet.radius_m;
-    const bool average = options.voxel_values == VoxelValues::average;
     for (auto& c : r.constituents) {
+        // What its voxels hold: automatic — the mean where a voxel spans more than half the
+        // constituent's thinnest layer (where point values' chords and the continuation below the
+        // ground bias rays across the layer by percents: docs/vdb.md, Voxel values), else points.
+        c.values = options.voxel_values != VoxelValues::automatic ? options.voxel_values
+                   : v * r.L > 0.5 * profile_feature_m(c.source->profile, thickness_m) ? VoxelValues::average
+                                                                                        : VoxelValues::point;
+        const bool average = c.values == VoxelValues::average;
         auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         if (average && lo <= hi) {
             // A voxel's mean reaches as far as its hat (≤ √3 voxels along the vertical): a cell

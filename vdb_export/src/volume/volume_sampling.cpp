@@ -213,10 +213,10 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
     const std::uint64_t mask = nc >= 64 ? block.constituents : block.constituents & ((std::uint64_t(1) << nc) - 1);
     if (mask == 0) return 0;
     const double v = L.voxel_size, Lm = L.metres_per_unit;
-    const bool average = L.options.voxel_values == VoxelValues::average;
     const detail::VdbRegionTest& region = region_->test;
     std::uint64_t any = 0;
     const detail::DensityPieces* asked[kMaxVolumeConstituents];
+    bool in_band[kMaxVolumeConstituents];
     double values[kMaxVolumeConstituents];
     for (int x = 0; x < kDim; ++x) {
         for (int y = 0; y < kDim; ++y) {
@@ -231,19 +231,21 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                 const int offset = x * kDim * kDim + y * kDim + z;
                 // the constituents whose band holds the voxel; their values (one call for all
                 // of them with VoxelValues::average: the hat's quadrature is shared)
-                bool any_in = false;
+                bool any_in = false, any_average = false;
                 for (std::size_t c = 0; c < nc; ++c) {
                     const VdbConstituent& con = L.constituents[c];
-                    const bool in = (mask >> c & 1) && h_m >= con.band_min_m && h_m <= con.band_max_m;
-                    asked[c] = in ? &region_->pieces[c] : nullptr;
-                    any_in = any_in || in;
+                    in_band[c] = (mask >> c & 1) && h_m >= con.band_min_m && h_m <= con.band_max_m;
+                    const bool average = in_band[c] && con.values == VoxelValues::average;
+                    asked[c] = average ? &region_->pieces[c] : nullptr;
+                    any_in = any_in || in_band[c];
+                    any_average = any_average || average;
                 }
                 if (!any_in) continue;
-                if (average) detail::voxel_averages(std::span(asked, nc), h_m, up, v * Lm, std::span(values, nc));
+                if (any_average) detail::voxel_averages(std::span(asked, nc), h_m, up, v * Lm, std::span(values, nc));
                 for (std::size_t c = 0; c < nc; ++c) {
-                    if (!asked[c]) continue;
+                    if (!in_band[c]) continue;
                     const VdbConstituent& con = L.constituents[c];
-                    const double rho = average ? values[c] : con.source->profile.at(h_m);
+                    const double rho = asked[c] ? values[c] : con.source->profile.at(h_m);
                     if (!(rho > 0.0) || rho < con.density_threshold) continue;
                     const float f = float(rho);
                     if (!(f > 0.0f)) continue;  // an active voxel holds a nonzero value
