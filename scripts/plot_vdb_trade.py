@@ -40,9 +40,19 @@ def main(argv=None):
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
     names = list(dict.fromkeys(r["ray"] for r in rays))
-    for name in names:
-        pts = sorted((float(r["voxel_size_km"]), float(r["tau_rel_error_max"])) for r in rays if r["ray"] == name)
-        ax1.loglog([p[0] for p in pts], [max(p[1], 1e-12) for p in pts], "o-", label=name)
+    # the voxel values measured (docs/vdb.md, Voxel values): auto solid, point dashed, average dotted;
+    # a CSV from before the column: its rows as "auto"
+    modes = list(dict.fromkeys(r.get("voxel_values", "auto") for r in rays))
+    styles = {"auto": "o-", "point": "s--", "average": "^:"}
+    for i, name in enumerate(names):
+        for mode in modes:
+            pts = sorted((float(r["voxel_size_km"]), float(r["tau_rel_error_max"])) for r in rays
+                         if r["ray"] == name and r.get("voxel_values", "auto") == mode)
+            ax1.loglog([p[0] for p in pts], [max(p[1], 1e-12) for p in pts], styles.get(mode, "x-"), color=f"C{i}",
+                       label=name if mode == modes[0] else None, ms=3 if mode != "auto" else 5)
+    if len(modes) > 1:
+        for mode in modes:
+            ax1.plot([], [], styles.get(mode, "x-"), color="grey", label=f"values: {mode}")
     sizes = sorted({float(r["voxel_size_km"]) for r in rays})
     if len(sizes) > 1:  # O(v²) guide through the finest zenith point
         ax1.loglog(sizes, [1e-3 * (s / sizes[0]) ** 2 for s in sizes], "k:", lw=1, label="∝ voxel²")
@@ -53,7 +63,8 @@ def main(argv=None):
     ax1.legend(fontsize=8)
 
     for region, style in (("view-200km", "-"), ("slab", "--")):
-        rows = sorted((r for r in costs if r["region"] == region and r["refused"] == "0"),
+        rows = sorted((r for r in costs if r["region"] == region and r["refused"] == "0"
+                       and r.get("voxel_values", "auto") == "auto"),
                       key=lambda r: float(r["voxel_size_km"]))
         if not rows:
             continue

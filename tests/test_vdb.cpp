@@ -81,11 +81,12 @@ const Constituent& constituent(const Scene& s, const std::string& name) {
 }
 
 // A small box through the whole atmosphere above the origin, 2-km voxels.
-VdbOptions small_box() {
+VdbOptions small_box(VoxelValues values = VoxelValues::automatic) {
     VdbOptions o;
     o.region = VdbRegion::box;
     o.box = {-10, -10, -1, 10, 10, 62};
     o.voxel_size = 2.0;
+    o.voxel_values = values;
     return o;
 }
 
@@ -95,9 +96,7 @@ TEST(Vdb, RoundTripPointValuesAtVoxelCentresEqualTheAnalyticDensity) {
     const Scene scene = load_preset("earth");
     TempDir dir;
     const fs::path out = dir / "a.vdb";
-    VdbOptions o = small_box();
-    o.voxel_values = VoxelValues::point;
-    const VdbStats stats = export_vdb(scene, o, out);
+    const VdbStats stats = export_vdb(scene, small_box(VoxelValues::point), out);
     ASSERT_EQ(stats.files.size(), 1u);
     EXPECT_EQ(stats.files[0], out);
     EXPECT_EQ(stats.file_bytes, fs::file_size(out));
@@ -137,9 +136,7 @@ TEST(Vdb, RoundTripAverageValuesAreEachVoxelsHatMean) {
     const Scene scene = load_preset("earth");
     TempDir dir;
     const fs::path out = dir / "a.vdb";
-    VdbOptions o = small_box();
-    o.voxel_values = VoxelValues::average;
-    export_vdb(scene, o, out);
+    export_vdb(scene, small_box(VoxelValues::average), out);
     const ReadBack rb = read_vdb(out);
     std::size_t checked = 0;
     for (const char* name : {"rayleigh", "mie", "ozone"}) {
@@ -192,8 +189,7 @@ TEST(Vdb, AutomaticValuesFollowEachConstituentsThinnestLayer) {
 
 TEST(Vdb, EveryVoxelOfTheRegionAboveTheThresholdIsActive) {
     const Scene scene = load_preset("earth");
-    VdbOptions opt = small_box();
-    opt.voxel_values = VoxelValues::point;
+    const VdbOptions opt = small_box(VoxelValues::point);
     const VdbVolume vol = build_vdb_volume(scene, opt);
     ASSERT_EQ(vol.tiles.size(), 1u);
     const VdbLayout& L = vol.layout;

@@ -382,10 +382,12 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
     for (auto& c : r.constituents) {
         // What its voxels hold: automatic — the mean where a voxel spans more than half the
         // constituent's thinnest layer (where point values' chords and the continuation below the
-        // ground bias rays across the layer by percents: docs/vdb.md, Voxel values), else points.
+        // ground bias rays across the layer by percents: docs/vdb.md, Voxel values), else points;
+        // the automatic voxel size itself (exactly half a layer, to rounding) keeps points.
+        const double half_layer_m = 0.5 * profile_feature_m(c.source->profile, thickness_m);
         c.values = options.voxel_values != VoxelValues::automatic ? options.voxel_values
-                   : v * r.L > 0.5 * profile_feature_m(c.source->profile, thickness_m) ? VoxelValues::average
-                                                                                        : VoxelValues::point;
+                   : v * r.L > half_layer_m * (1.0 + 1e-9)      ? VoxelValues::average
+                                                                : VoxelValues::point;
         const bool average = c.values == VoxelValues::average;
         auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         if (average && lo <= hi) {
