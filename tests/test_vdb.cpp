@@ -185,6 +185,20 @@ TEST(Vdb, AutomaticValuesFollowEachConstituentsThinnestLayer) {
         EXPECT_EQ(rb.grids.at(name)->metaValue<std::string>("airmass:voxel_values"), voxel_values_name(v)) << name;
     o.voxel_size = 0.5;  // finer than half of every layer: points throughout
     for (const auto& c : resolve_vdb_layout(scene, o).constituents) EXPECT_EQ(c.values, VoxelValues::point) << c.name;
+    // A view: the means only for layers its camera is above (it looks across them); from inside
+    // a layer it looks along it, where points keep the density at the ground.
+    Scene viewed = scene;
+    viewed.camera = Camera{};  // on the ground, looking along it
+    VdbOptions v;
+    v.region = VdbRegion::view;
+    v.voxel_size = 8.0;  // coarser than half of every layer
+    for (const auto& c : resolve_vdb_layout(viewed, v).constituents) EXPECT_EQ(c.values, VoxelValues::point) << c.name;
+    viewed.camera->position_m[2] = 20e3;  // above the aerosol (1.2 km: its layer ends at 6 km), inside the rest
+    viewed.camera->max_distance_m = 400e3;
+    want = {{"rayleigh", VoxelValues::point}, {"mie", VoxelValues::average}, {"ozone", VoxelValues::point}};
+    for (const auto& c : resolve_vdb_layout(viewed, v).constituents) EXPECT_EQ(c.values, want.at(c.name)) << c.name;
+    viewed.camera->position_m[2] = 400e3;  // above them all
+    for (const auto& c : resolve_vdb_layout(viewed, v).constituents) EXPECT_EQ(c.values, VoxelValues::average) << c.name;
 }
 
 TEST(Vdb, EveryVoxelOfTheRegionAboveTheThresholdIsActive) {

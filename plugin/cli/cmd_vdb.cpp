@@ -139,8 +139,8 @@ void add_vdb_command(CLI::App& app) {
     cmd->add_option("--voxel-values", o->voxel_values,
                     "average: each voxel the density's mean over its trilinear footprint (rays across a layer keep "
                     "its mass at any voxel size); point: the density at its centre (exact at the ground); auto: "
-                    "average for a constituent whose thinnest layer is under two voxels, else point (docs/vdb.md, "
-                    "Voxel values)")
+                    "average for a constituent whose thinnest layer is under two voxels and which the camera looks "
+                    "across (from above it; always for planet and box), else point (docs/vdb.md, Voxel values)")
         ->check(CLI::IsMember({"auto", "average", "point"}))
         ->capture_default_str();
     cmd->add_flag("--default-camera", o->default_camera,

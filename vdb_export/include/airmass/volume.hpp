@@ -72,7 +72,8 @@ std::string_view region_name(VdbRegion r);         // "planet", "view", "box"
 // What a voxel holds (docs/vdb.md, "Voxel values"; `airmass report vdb` measures both).
 enum class VoxelValues {
     // Per constituent: average where the voxel is more than half its thinnest layer
-    // (profile_feature_m), point otherwise.
+    // (profile_feature_m) and the rays cross the layer (the planet, a box, a view whose camera
+    // is above it), point otherwise.
     automatic,
     // The density's mean over the voxel's trilinear hat, in the air above the ground: the
     // renderer's trilinear reconstruction then carries the atmosphere's mass at any voxel size

@@ -160,7 +160,8 @@ std::string vdb_trade_markdown(const VdbTradeResult& r, const std::string& scene
       << "(trilinear) against the analytic value; in brackets the transmittance error |ΔT|. Values (`--voxel-values`): "
       << "`average` = each voxel the density's mean over its trilinear footprint in the air, `point` = the density "
       << "at its centre, `auto` (the default) = average for a constituent whose thinnest layer is under two voxels "
-      << "(Earth's aerosol, 1.2 km, from 0.6-km voxels on), point for the others.\n\n";
+      << "(Earth's aerosol, 1.2 km, above 0.6-km voxels) where rays cross the layer — here the slab, a box —, "
+      << "point for the others and in views from inside the layer (the `view-200km` costs: a ground camera).\n\n";
     rows_by_rays(
         o, r.rays, [](const VdbTradeRayRow& x) { return std::pair(x.voxel_size, x.voxel_values); },
         "| voxel (km) | values |", 2,

@@ -109,6 +109,18 @@ std::vector<double> profile_breakpoints(const DensityProfile& p) {
     return {};
 }
 
+// Where a constituent's layer ends (metres): 5 scale heights above an exponential's reference
+// (e⁻⁵ of it), a tent's or a constant's top, the last knot; at most the atmosphere's top.
+double layer_top_m(const DensityProfile& p, double thickness_m) {
+    switch (p.kind) {
+        case DensityProfile::Kind::exponential: return std::min(thickness_m, p.reference_altitude_m + 5 * p.scale_height_m);
+        case DensityProfile::Kind::tent: return std::min(thickness_m, p.top_m);
+        case DensityProfile::Kind::piecewise_linear: return p.knots.empty() ? 0.0 : std::min(thickness_m, p.knots.back().first);
+        case DensityProfile::Kind::constant: return p.top_m > p.bottom_m ? std::min(thickness_m, p.top_m) : thickness_m;
+    }
+    return thickness_m;
+}
+
 double profile_max(const DensityProfile& p, double h_lo, double h_hi) {
     double m = std::max(p.at(h_lo), p.at(h_hi));
     for (double h : profile_breakpoints(p))
@@ -381,13 +393,19 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
     const double thickness_m = scene.planet.atmosphere_top_m - scene.planet.radius_m;
     for (auto& c : r.constituents) {
         // What its voxels hold: automatic — the mean where a voxel spans more than half the
-        // constituent's thinnest layer (where point values' chords and the continuation below the
-        // ground bias rays across the layer by percents: docs/vdb.md, Voxel values), else points;
-        // the automatic voxel size itself (exactly half a layer, to rounding) keeps points.
+        // constituent's thinnest layer (there point values' chords and the continuation below the
+        // ground put percents too much into every ray across the layer: docs/vdb.md, Voxel
+        // values) and the rays cross it: a view's camera above the layer, or the whole planet and
+        // boxes (seen from outside); points otherwise — a camera inside the layer looks along it,
+        // where the means lose the density at the ground (horizon rays: 2 % against 3e-6 at
+        // 1-km voxels). The automatic voxel size itself (half a layer, to rounding) keeps points.
         const double half_layer_m = 0.5 * profile_feature_m(c.source->profile, thickness_m);
+        const bool coarse = v * r.L > half_layer_m * (1.0 + 1e-9);
+        const bool crossed = !r.view || (glm::length(r.view->position - r.center) - r.radius) * r.L >
+                                            layer_top_m(c.source->profile, thickness_m);
         c.values = options.voxel_values != VoxelValues::automatic ? options.voxel_values
-                   : v * r.L > half_layer_m * (1.0 + 1e-9)      ? VoxelValues::average
-                                                                : VoxelValues::point;
+                   : coarse && crossed                         ? VoxelValues::average
+                                                               : VoxelValues::point;
         const bool average = c.values == VoxelValues::average;
         auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         if (average && lo <= hi) {
