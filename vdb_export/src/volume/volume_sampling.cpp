@@ -215,9 +215,6 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
     const double v = L.voxel_size, Lm = L.metres_per_unit;
     const detail::VdbRegionTest& region = region_->test;
     std::uint64_t any = 0;
-    const detail::DensityPieces* asked[kMaxVolumeConstituents];
-    bool in_band[kMaxVolumeConstituents];
-    double values[kMaxVolumeConstituents];
     for (int x = 0; x < kDim; ++x) {
         for (int y = 0; y < kDim; ++y) {
             for (int z = 0; z < kDim; ++z) {
@@ -229,23 +226,13 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                 const double h_m = (r - L.planet_radius) * Lm;
                 const Vec3d up = r > 0.0 ? (p - L.planet_center) / r : Vec3d(0, 0, 1);
                 const int offset = x * kDim * kDim + y * kDim + z;
-                // the constituents whose band holds the voxel; their values (one call for all
-                // of them with VoxelValues::average: the hat's quadrature is shared)
-                bool any_in = false, any_average = false;
                 for (std::size_t c = 0; c < nc; ++c) {
+                    if (!(mask >> c & 1)) continue;
                     const VdbConstituent& con = L.constituents[c];
-                    in_band[c] = (mask >> c & 1) && h_m >= con.band_min_m && h_m <= con.band_max_m;
-                    const bool average = in_band[c] && con.values == VoxelValues::average;
-                    asked[c] = average ? &region_->pieces[c] : nullptr;
-                    any_in = any_in || in_band[c];
-                    any_average = any_average || average;
-                }
-                if (!any_in) continue;
-                if (any_average) detail::voxel_averages(std::span(asked, nc), h_m, up, v * Lm, std::span(values, nc));
-                for (std::size_t c = 0; c < nc; ++c) {
-                    if (!in_band[c]) continue;
-                    const VdbConstituent& con = L.constituents[c];
-                    const double rho = asked[c] ? values[c] : con.source->profile.at(h_m);
+                    if (h_m < con.band_min_m || h_m > con.band_max_m) continue;
+                    const double rho = con.values == VoxelValues::average
+                                           ? detail::voxel_average(region_->pieces[c], h_m, up, v * Lm)
+                                           : con.source->profile.at(h_m);
                     if (!(rho > 0.0) || rho < con.density_threshold) continue;
                     const float f = float(rho);
                     if (!(f > 0.0f)) continue;  // an active voxel holds a nonzero value

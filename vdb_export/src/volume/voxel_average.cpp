@@ -222,23 +222,13 @@ double general(const DensityPieces& prof, double h, const double* w, double reac
 
 }  // namespace
 
-void voxel_averages(std::span<const DensityPieces* const> profs, double h, const Vec3<double>& n, double voxel_m,
-                    std::span<double> out) {
+double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m) {
     double w[3] = {std::abs(n.x) * voxel_m, std::abs(n.y) * voxel_m, std::abs(n.z) * voxel_m};
     std::sort(w, w + 3);  // w[2] the widest
     const double reach = w[0] + w[1] + w[2];
-    for (std::size_t c = 0; c < profs.size(); ++c) {
-        out[c] = 0.0;
-        if (!profs[c] || !(h + reach > 0.0)) continue;  // none asked, or the whole hat below the ground
-        if (!closed_form(*profs[c], h, reach, w, out[c])) out[c] = general(*profs[c], h, w, reach);
-    }
-}
-
-double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m) {
-    const DensityPieces* one[1] = {&prof};
-    double v[1];
-    voxel_averages(one, h, n, voxel_m, v);
-    return v[0];
+    if (!(h + reach > 0.0)) return 0.0;  // the whole hat below the ground
+    double v = 0.0;
+    return closed_form(prof, h, reach, w, v) ? v : general(prof, h, w, reach);
 }
 
 }  // namespace airmass::detail

@@ -23,7 +23,6 @@
 // triangles' moment generating functions, Π_a (sinh(y_a)/y_a)², y_a = |n_a|Δ/2H).
 #pragma once
 
-#include <span>
 #include <vector>
 
 #include "airmass/geometry.hpp"
@@ -51,11 +50,5 @@ struct DensityPieces {
 // voxel_m (metres), as above; 0 when no part of its hat is above the ground. ≥ 0, finite,
 // at most the profile's largest value on [0, top_m].
 double voxel_average(const DensityPieces& prof, double h_m, const Vec3<double>& n, double voxel_m);
-
-// The same for several profiles of one voxel at once (out[c] for profs[c]; 0 where profs[c] is
-// null): the hat's geometry, quadrature nodes and mass above the ground are shared. All profiles
-// share one top.
-void voxel_averages(std::span<const DensityPieces* const> profs, double h_m, const Vec3<double>& n, double voxel_m,
-                    std::span<double> out);
 
 }  // namespace airmass::detail
