@@ -570,8 +570,16 @@ TEST(Vdb, AutomaticVoxelSizeFollowsScaleHeightsAndTheCamera) {
     const double v_planet = auto_voxel_size(scene, p);
     EXPECT_GT(v_planet, 10.0);
     EXPECT_LT(v_planet, 30.0);
+    // Rounded up so that 2R is a whole number of voxels (the centre, at (0, 0, −R), then on the
+    // lattice's symmetry planes: SymmetricAverages), by less than v²/2R.
+    const double twice_r = 2 * 6360.0;
+    EXPECT_NEAR(twice_r / v_planet, std::round(twice_r / v_planet), 1e-9);
     p.max_dense_mb *= 8;
-    EXPECT_NEAR(auto_voxel_size(scene, p), v_planet / 2, 1e-9 * v_planet);  // dense ∝ v⁻³
+    const double v_finer = auto_voxel_size(scene, p);
+    EXPECT_NEAR(twice_r / v_finer, std::round(twice_r / v_finer), 1e-9);
+    EXPECT_NEAR(v_finer, v_planet / 2, v_planet * v_planet / twice_r);  // dense ∝ v⁻³
+    p.origin = PlanetOrigin::center;  // the centre at the origin: nothing to round
+    EXPECT_NEAR(auto_voxel_size(scene, p), v_finer, v_planet * v_planet / twice_r);
 }
 
 TEST(Vdb, ThresholdFollowsTheToleranceOnOpticalDepth) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "airmass/scene.hpp"
@@ -139,6 +140,103 @@ TEST(VoxelAverage, EqualsTheHatsMeanByBruteForce) {
                 where.c_str(), closed, total);
     for (const auto& [name, e] : worst_of) std::printf("  %-12s worst %.3g\n", name.c_str(), e);
     EXPECT_LT(worst, 1e-4) << where;  // measured 5.3e-6 (7.86 km voxels at a tent knot); the brute force is good to ~1e-8
+}
+
+}  // namespace
+
+namespace {
+
+// SymmetricAverages (the sampler's store of means shared by symmetric voxels) against
+// voxel_average at each voxel's own geometry, on a small planet (radius 40 km, top 100 km,
+// 9-km voxels: 25³ voxels), for three placements of its centre: every axis symmetric (the
+// centre as origin), x and y only (the default surface origin: 2R/Δ not an integer), and a
+// centre half a voxel off on x (an odd class of its own) with y and z whole.
+TEST(VoxelAverage, SymmetricVoxelsShareOneMeanEqualToTheirOwn) {
+    using airmass::detail::DensityPieces;
+    using airmass::detail::SymmetricAverages;
+    std::vector<DensityPieces> profiles;
+    for (const Case& c : cases()) profiles.push_back(DensityPieces::of(c.profile, kTop));
+    const double voxel = 9.0, radius = 40.0;  // km
+    struct Placement {
+        const char* name;
+        Vec3<double> centre;
+        std::size_t max_classes;  // ≈ voxels / the symmetry group's order (48, 8, 4), plus its fixed points
+    };
+    const int n = 12, count = (2 * n + 1) * (2 * n + 1) * (2 * n + 1);
+    const std::vector<Placement> placements = {{"centre origin", {0, 0, 0}, std::size_t(count / 30)},  // 455 classes
+                                               {"surface origin", {0, 0, -radius}, std::size_t(count / 6)},  // 2275
+                                               {"x half a voxel off", {4.5, -9, 0}, std::size_t(count / 10)}};
+    for (const auto& pl : placements) {
+        SymmetricAverages store({voxel, pl.centre, radius, 1000.0}, profiles, std::size_t(64) << 20);
+        SymmetricAverages unstored({voxel, pl.centre, radius, 1000.0}, profiles, 0);
+        ASSERT_TRUE(store.useful()) << pl.name;
+        double worst = 0.0;
+        for (std::size_t c = 0; c < profiles.size(); ++c)
+            for (int i = -n; i <= n; ++i)
+                for (int j = -n; j <= n; ++j)
+                    for (int k = -n; k <= n; ++k) {
+                        const Vec3<double> p = Vec3<double>(i, j, k) * voxel;
+                        const double r = glm::length(p - pl.centre);
+                        const Vec3<double> up = r > 0.0 ? (p - pl.centre) / r : Vec3<double>(0, 0, 1);
+                        const double want = airmass::detail::voxel_average(profiles[c], (r - radius) * 1000.0, up,
+                                                                           voxel * 1000.0);
+                        const double got = store.get(c, {i, j, k});
+                        ASSERT_TRUE(std::isfinite(got));
+                        worst = std::max(worst, std::abs(got - want) / std::max(want, 1e-300));
+                        ASSERT_EQ(unstored.get(c, {i, j, k}), got) << pl.name;  // the same canonical member
+                    }
+        // every voxel's mean as its own geometry gives it, to rounding (the canonical member's
+        // altitude and widths are the voxel's up to the order of a sum of squares)
+        EXPECT_LT(worst, 1e-12) << pl.name;
+        EXPECT_GT(store.stored(), 0u) << pl.name;
+        EXPECT_LE(store.stored(), pl.max_classes) << pl.name << ": the symmetric voxels were not shared";
+        EXPECT_EQ(unstored.stored(), 0u) << pl.name;  // no bytes: computed, never stored
+
+        // mirrored and swapped voxels get bit-identical means
+        const auto mirror = [&](int i, int a) { return int(std::lround(2.0 * pl.centre[a] / voxel)) - i; };
+        for (std::size_t c = 0; c < profiles.size(); ++c)
+            for (int i = -n + 2; i <= n - 2; i += 3)
+                for (int j = -n + 2; j <= n - 2; j += 2) {
+                    const double v = store.get(c, {i, j, 1});
+                    EXPECT_EQ(store.get(c, {mirror(i, 0), j, 1}), v) << pl.name;
+                    EXPECT_EQ(store.get(c, {i, mirror(j, 1), 1}), v) << pl.name;
+                    if (pl.centre[0] == 0.0 && pl.centre[1] == 0.0) {
+                        EXPECT_EQ(store.get(c, {j, i, 1}), v) << pl.name;
+                    }
+                }
+    }
+    // Without a symmetric axis the store is not used (the sampler then computes directly).
+    SymmetricAverages none({voxel, {0.3, 0.4, 0.5}, radius, 1000.0}, profiles, std::size_t(1) << 20);
+    EXPECT_FALSE(none.useful());
+}
+
+// Two workers asking at once get the single-threaded values.
+TEST(VoxelAverage, SymmetricAveragesFromTwoThreadsMatchOne) {
+    using airmass::detail::DensityPieces;
+    using airmass::detail::SymmetricAverages;
+    std::vector<DensityPieces> profiles;
+    for (const Case& c : cases()) profiles.push_back(DensityPieces::of(c.profile, kTop));
+    const SymmetricAverages::Lattice lattice{9.0, {0, 0, -40.0}, 40.0, 1000.0};
+    const int n = 12;
+    std::vector<double> one, two[2];
+    SymmetricAverages a(lattice, profiles, std::size_t(64) << 20), b(lattice, profiles, std::size_t(64) << 20);
+    for (int i = -n; i <= n; ++i)
+        for (int j = -n; j <= n; ++j)
+            for (int k = -n; k <= n; ++k) one.push_back(a.get(0, {i, j, k}));
+    std::vector<std::thread> workers;
+    for (int w = 0; w < 2; ++w)
+        workers.emplace_back([&, w] {
+            for (int i = -n; i <= n; ++i)  // the two in opposite orders, so they meet in the store
+                for (int j = -n; j <= n; ++j)
+                    for (int k = -n; k <= n; ++k) {
+                        const int s = w == 0 ? 1 : -1;
+                        two[w].push_back(b.get(0, {s * i, s * j, s * k}));
+                    }
+        });
+    for (auto& t : workers) t.join();
+    std::reverse(two[1].begin(), two[1].end());
+    EXPECT_EQ(two[0], one);
+    EXPECT_EQ(two[1], one);
 }
 
 }  // namespace

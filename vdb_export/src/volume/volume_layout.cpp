@@ -354,6 +354,18 @@ double auto_voxel_size_resolved(const Scene& scene, const VdbOptions& options, c
     const double dense_budget = options.max_dense_mb * 1024.0 * 1024.0 / (waste * sizeof(float));
     const double memory_budget = options.max_memory_mb * 1024.0 * 1024.0 / kBytesPerActiveVoxel;
     v = std::max(v, std::cbrt(volume / std::min(dense_budget, memory_budget)));
+    if (options.region == VdbRegion::planet) {
+        // A whole shell: a little coarser, so that the planet's centre lies on the lattice or
+        // halfway between two of its nodes on every axis (2c/v whole; with the origin on the
+        // surface, c_z = −R). Then the lattice is symmetric under the centre's 48 reflections
+        // and axis swaps, and the voxels' means are computed once per 48 voxels, not per 8
+        // (voxel_average.hpp, SymmetricAverages). v grows by less than v²/2R (0.03 km for Earth).
+        for (int a = 0; a < 3; ++a) {
+            const double twice = 2.0 * std::abs(r.center[a]);
+            if (twice > 0.0 && twice / v < double(1 << 20))
+                if (const double k = std::floor(twice / v); k >= 1.0) v = twice / k;
+        }
+    }
     return v;
 }
 

@@ -151,13 +151,24 @@ struct VolumeSampler::Region {
     detail::VdbRegionTest test;
     std::vector<Radii> radii;
     std::vector<detail::DensityPieces> pieces;  // VoxelValues::average: each constituent's profile
+    // The means that need quadrature, once per class of voxels the planet's symmetry makes
+    // equal (voxel_average.hpp); at most kAverageMemoBytes of table, then computed directly.
+    std::unique_ptr<detail::SymmetricAverages> averages;
+    static constexpr std::size_t kAverageMemoBytes = std::size_t(192) << 20;
     explicit Region(const VdbLayout& layout) : test(layout) {
         const double top_m = (layout.atmosphere_top - layout.planet_radius) * layout.metres_per_unit;
+        bool any_average = false;
         for (const auto& c : layout.constituents) {
             radii.push_back({layout.planet_radius + c.band_min_m / layout.metres_per_unit,
                              std::min(layout.atmosphere_top, layout.planet_radius + c.band_max_m / layout.metres_per_unit)});
             pieces.push_back(detail::DensityPieces::of(c.source->profile, top_m));
+            any_average = any_average || c.values == VoxelValues::average;
         }
+        if (any_average)
+            averages = std::make_unique<detail::SymmetricAverages>(
+                detail::SymmetricAverages::Lattice{layout.voxel_size, layout.planet_center, layout.planet_radius,
+                                                   layout.metres_per_unit},
+                pieces, kAverageMemoBytes);
     }
 };
 
@@ -226,15 +237,26 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                 const double h_m = (r - L.planet_radius) * Lm;
                 const Vec3d up = r > 0.0 ? (p - L.planet_center) / r : Vec3d(0, 0, 1);
                 const int offset = x * kDim * kDim + y * kDim + z;
+                // Each constituent's value; the means without a closed form are asked of the
+                // symmetric store together (one lookup per voxel).
+                double rho[kMaxVolumeConstituents];
+                std::uint64_t in_band = 0, quadrature = 0;
                 for (std::size_t c = 0; c < nc; ++c) {
                     if (!(mask >> c & 1)) continue;
                     const VdbConstituent& con = L.constituents[c];
                     if (h_m < con.band_min_m || h_m > con.band_max_m) continue;
-                    const double rho = con.values == VoxelValues::average
-                                           ? detail::voxel_average(region_->pieces[c], h_m, up, v * Lm)
-                                           : con.source->profile.at(h_m);
-                    if (!(rho > 0.0) || rho < con.density_threshold) continue;
-                    const float f = float(rho);
+                    in_band |= std::uint64_t(1) << c;
+                    if (con.values != VoxelValues::average)
+                        rho[c] = con.source->profile.at(h_m);
+                    else if (!detail::voxel_average_closed_form(region_->pieces[c], h_m, up, v * Lm, rho[c]))
+                        quadrature |= std::uint64_t(1) << c;
+                }
+                if (quadrature) region_->averages->get(ijk, quadrature, rho);
+                for (std::size_t c = 0; c < nc; ++c) {
+                    if (!(in_band >> c & 1)) continue;
+                    const VdbConstituent& con = L.constituents[c];
+                    if (!(rho[c] > 0.0) || rho[c] < con.density_threshold) continue;
+                    const float f = float(rho[c]);
                     if (!(f > 0.0f)) continue;  // an active voxel holds a nonzero value
                     VolumeBlockValues& o = out[c];
                     o.value[std::size_t(offset)] = f;

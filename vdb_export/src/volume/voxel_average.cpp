@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <glm/geometric.hpp>
+
 namespace airmass::detail {
 
 namespace {
@@ -227,13 +229,197 @@ double general(const DensityPieces& prof, double h, const double* w, double reac
 
 }  // namespace
 
+namespace {
+
+struct Hat {
+    double w[3];  // the projected half-widths, w[2] the widest
+    double reach;
+};
+Hat hat_of(const Vec3<double>& n, double voxel_m) {
+    Hat hat{{std::abs(n.x) * voxel_m, std::abs(n.y) * voxel_m, std::abs(n.z) * voxel_m}, 0.0};
+    std::sort(hat.w, hat.w + 3);
+    hat.reach = hat.w[0] + hat.w[1] + hat.w[2];
+    return hat;
+}
+
+}  // namespace
+
 double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m) {
-    double w[3] = {std::abs(n.x) * voxel_m, std::abs(n.y) * voxel_m, std::abs(n.z) * voxel_m};
-    std::sort(w, w + 3);  // w[2] the widest
-    const double reach = w[0] + w[1] + w[2];
-    if (!(h + reach > 0.0)) return 0.0;  // the whole hat below the ground
+    const Hat hat = hat_of(n, voxel_m);
+    if (!(h + hat.reach > 0.0)) return 0.0;  // the whole hat below the ground
     double v = 0.0;
-    return closed_form(prof, h, reach, w, v) ? v : general(prof, h, w, reach);
+    return closed_form(prof, h, hat.reach, hat.w, v) ? v : general(prof, h, hat.w, hat.reach);
+}
+
+bool voxel_average_closed_form(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m,
+                               double& value) {
+    const Hat hat = hat_of(n, voxel_m);
+    if (!(h + hat.reach > 0.0)) {
+        value = 0.0;
+        return true;
+    }
+    return closed_form(prof, h, hat.reach, hat.w, value);
+}
+
+// ---------------------------------------------------------------------------------------------
+// SymmetricAverages
+
+namespace {
+
+constexpr std::uint64_t kEmpty = ~std::uint64_t(0);  // no key: a key has bit 63 clear
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyRange = std::int64_t(1) << kKeyBits;
+constexpr int kShardBits = 6;
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
+    x ^= x >> 30;
+    x *= 0xbf58476d1ce4e5b9ull;
+    x ^= x >> 27;
+    x *= 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
+}  // namespace
+
+struct SymmetricAverages::Shard {
+    std::mutex mutex;
+    std::vector<std::uint64_t> keys;  // kEmpty or a key; linear probing
+    std::vector<double> values;       // per slot, one per profile; NaN: not computed yet
+    std::size_t size = 0;
+};
+
+SymmetricAverages::SymmetricAverages(const Lattice& lattice, const std::vector<DensityPieces>& profiles,
+                                     std::size_t max_bytes)
+    : lattice_(lattice), profiles_(profiles), max_bytes_(max_bytes), shards_(new Shard[std::size_t(1) << kShardBits]) {
+    for (int a = 0; a < 3; ++a) {
+        // Whole to rounding (an automatic planet voxel is 2R/k: its quotient may miss k by an
+        // ulp); the reflection's offset is then wrong by < 1e-9 voxel, far below the means' error.
+        const double m = 2.0 * lattice.centre[a] / lattice.voxel;
+        if (std::isfinite(m) && std::abs(m) < double(kKeyRange) && std::abs(m - std::nearbyint(m)) <= 1e-9) {
+            symmetric_[std::size_t(a)] = true;
+            twice_centre_[std::size_t(a)] = std::int64_t(std::nearbyint(m));
+            ++symmetric_axes_;
+        }
+    }
+}
+
+SymmetricAverages::~SymmetricAverages() = default;
+
+std::size_t SymmetricAverages::stored() const {
+    std::size_t n = 0;
+    for (std::size_t s = 0; s < (std::size_t(1) << kShardBits); ++s) {
+        std::lock_guard<std::mutex> lock(shards_[s].mutex);
+        n += shards_[s].size;
+    }
+    return n;
+}
+
+void SymmetricAverages::compute(const std::array<std::int64_t, 3>& ijk, std::uint64_t which, double* out) const {
+    // As the sampler computes a voxel's own geometry (volume_sampling.cpp).
+    const Vec3<double> p = Vec3<double>(double(ijk[0]), double(ijk[1]), double(ijk[2])) * lattice_.voxel;
+    const double r = glm::length(p - lattice_.centre);
+    const double h_m = (r - lattice_.planet_radius) * lattice_.metres_per_unit;
+    const Vec3<double> up = r > 0.0 ? (p - lattice_.centre) / r : Vec3<double>(0, 0, 1);
+    for (std::size_t c = 0; c < profiles_.size(); ++c)
+        if (which >> c & 1) out[c] = voxel_average(profiles_[c], h_m, up, lattice_.voxel * lattice_.metres_per_unit);
+}
+
+void SymmetricAverages::get(const std::array<std::int32_t, 3>& ijk, std::uint64_t which, double* out) {
+    which &= profiles_.size() >= 64 ? ~std::uint64_t(0) : (std::uint64_t(1) << profiles_.size()) - 1;
+    std::array<std::int64_t, 3> canonical{ijk[0], ijk[1], ijk[2]};
+    if (symmetric_axes_ == 0 || which == 0) return compute(canonical, which, out);
+    // Reflect each symmetric axis onto its upper half (offset d = |2i − m| ≥ 0, twice the
+    // distance from the centre in voxels), then sort the offsets down within each class of
+    // axes that a swap maps onto each other (equal parity of m: the same offsets).
+    std::array<std::int64_t, 3> d{};
+    for (std::size_t a = 0; a < 3; ++a)
+        if (symmetric_[a]) d[a] = std::abs(2 * canonical[a] - twice_centre_[a]);
+    for (std::int64_t parity = 0; parity < 2; ++parity) {
+        std::size_t axes[3];
+        std::int64_t vals[3];
+        int n = 0;
+        for (std::size_t a = 0; a < 3; ++a)
+            if (symmetric_[a] && (twice_centre_[a] & 1) == parity) {
+                axes[n] = a;
+                vals[n++] = d[a];
+            }
+        std::sort(vals, vals + n, [](std::int64_t x, std::int64_t y) { return x > y; });
+        for (int k = 0; k < n; ++k) d[axes[k]] = vals[k];
+    }
+    std::uint64_t key = 0;
+    for (std::size_t a = 0; a < 3; ++a) {
+        std::int64_t part;
+        if (symmetric_[a]) {
+            canonical[a] = (twice_centre_[a] + d[a]) / 2;  // exact: d ≡ m (mod 2)
+            part = d[a];
+        } else {
+            part = canonical[a] + kKeyRange / 2;
+        }
+        if (part < 0 || part >= kKeyRange) return compute({ijk[0], ijk[1], ijk[2]}, which, out);  // beyond the key
+        key |= std::uint64_t(part) << (kKeyBits * int(a));
+    }
+
+    const std::size_t nc = profiles_.size();
+    const std::uint64_t hash = mix(key);
+    Shard& shard = shards_[hash >> (64 - kShardBits)];
+    // The slot of `key` in the shard, inserted if `insert` and there is room; npos if not there.
+    constexpr std::size_t npos = ~std::size_t(0);
+    const auto find = [&](bool insert) -> std::size_t {
+        if (shard.keys.empty() || (insert && 10 * (shard.size + 1) > 7 * shard.keys.size())) {
+            if (!insert) return npos;
+            const std::size_t old_cap = shard.keys.size(), cap = std::max<std::size_t>(64, 2 * old_cap);
+            const std::size_t add = (cap - old_cap) * (sizeof(std::uint64_t) + nc * sizeof(double));
+            if (bytes_.fetch_add(add) + add > max_bytes_) {  // no room: compute without storing
+                bytes_.fetch_sub(add);
+                if (shard.keys.empty()) return npos;
+            } else {
+                std::vector<std::uint64_t> keys(cap, kEmpty);
+                std::vector<double> values(cap * nc, std::numeric_limits<double>::quiet_NaN());
+                for (std::size_t s = 0; s < old_cap; ++s) {
+                    if (shard.keys[s] == kEmpty) continue;
+                    std::size_t t = mix(shard.keys[s]) & (cap - 1);
+                    while (keys[t] != kEmpty) t = (t + 1) & (cap - 1);
+                    keys[t] = shard.keys[s];
+                    std::copy_n(shard.values.begin() + std::ptrdiff_t(s * nc), nc, values.begin() + std::ptrdiff_t(t * nc));
+                }
+                shard.keys.swap(keys);
+                shard.values.swap(values);
+            }
+        }
+        const std::size_t cap = shard.keys.size();
+        std::size_t s = hash & (cap - 1);
+        while (shard.keys[s] != key) {
+            if (shard.keys[s] == kEmpty) {
+                if (!insert || 10 * (shard.size + 1) > 9 * cap) return npos;  // full at the byte limit
+                shard.keys[s] = key;
+                ++shard.size;
+                return s;
+            }
+            s = (s + 1) & (cap - 1);
+        }
+        return s;
+    };
+    std::uint64_t missing = 0;
+    {
+        std::lock_guard<std::mutex> lock(shard.mutex);
+        const std::size_t s = find(true);
+        if (s == npos) {
+            missing = which;
+        } else {
+            for (std::size_t c = 0; c < nc; ++c)
+                if (which >> c & 1) {
+                    const double v = shard.values[s * nc + c];
+                    if (std::isnan(v)) missing |= std::uint64_t(1) << c;
+                    else out[c] = v;
+                }
+        }
+    }
+    if (missing == 0) return;
+    compute(canonical, missing, out);  // outside the lock: the quadrature is the cost
+    std::lock_guard<std::mutex> lock(shard.mutex);
+    if (const std::size_t s = find(false); s != npos)
+        for (std::size_t c = 0; c < nc; ++c)
+            if (missing >> c & 1) shard.values[s * nc + c] = out[c];
 }
 
 }  // namespace airmass::detail

@@ -23,6 +23,11 @@
 // triangles' moment generating functions, Π_a (sinh(y_a)/y_a)², y_a = |n_a|Δ/2H).
 #pragma once
 
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "airmass/geometry.hpp"
@@ -50,5 +55,61 @@ struct DensityPieces {
 // voxel_m (metres), as above; 0 when no part of its hat is above the ground. ≥ 0, finite,
 // at most the profile's largest value on [0, top_m].
 double voxel_average(const DensityPieces& prof, double h_m, const Vec3<double>& n, double voxel_m);
+
+// voxel_average where it has the closed form (the hat inside [0, top] and inside one piece:
+// cheap, and almost every voxel of a fine lattice); false where it needs the quadrature.
+bool voxel_average_closed_form(const DensityPieces& prof, double h_m, const Vec3<double>& n, double voxel_m,
+                               double& value);
+
+// The means of a lattice's voxels that the planet's symmetry makes equal, each computed once.
+// Voxel centres lie at i·Δ and the planet's centre at c; wherever m_a = 2c_a/Δ is an integer
+// (axis a is symmetric: c_a = 0 — x and y with the default origin on the surface, every axis
+// with the origin at the centre) the reflection i_a → m_a − i_a maps the lattice onto itself,
+// and so does swapping two symmetric axes. A voxel's altitude and its hat's projected widths
+// |n_a|Δ go with it, hence its mean: the whole planet needs 1/8 of its voxels' quadratures
+// (1/48 with the centre as origin). Each class's mean is computed from its canonical member
+// (offsets |2i_a − m_a| sorted down over the symmetric axes): every member gets the same
+// value, whichever worker asked first. Thread-safe (64 locked shards of an open-addressing
+// table); beyond `max_bytes` of table it computes without storing.
+class SymmetricAverages {
+public:
+    struct Lattice {
+        double voxel = 1;           // Δ, in the layout's unit
+        Vec3<double> centre{0.0};   // the planet's centre, unit
+        double planet_radius = 0;   // unit
+        double metres_per_unit = 1;
+    };
+    SymmetricAverages(const Lattice& lattice, const std::vector<DensityPieces>& profiles, std::size_t max_bytes);
+    ~SymmetricAverages();
+    SymmetricAverages(const SymmetricAverages&) = delete;
+    SymmetricAverages& operator=(const SymmetricAverages&) = delete;
+
+    // Whether any axis is symmetric (else get() is voxel_average at the voxel itself).
+    bool useful() const { return symmetric_axes_ > 0; }
+    // The means over the hat of voxel ijk of the profiles whose bits are set in `which`, into
+    // out[c] (the others untouched); one lookup for all of them.
+    void get(const std::array<std::int32_t, 3>& ijk, std::uint64_t which, double* out);
+    // The mean of profile `c` alone.
+    double get(std::size_t c, const std::array<std::int32_t, 3>& ijk) {
+        double v[64];
+        get(ijk, std::uint64_t(1) << c, v);
+        return v[c];
+    }
+    // How many classes hold a stored mean (tests).
+    std::size_t stored() const;
+
+private:
+    struct Shard;
+    void compute(const std::array<std::int64_t, 3>& ijk, std::uint64_t which, double* out) const;
+
+    Lattice lattice_;
+    const std::vector<DensityPieces>& profiles_;
+    std::array<std::int64_t, 3> twice_centre_{};  // m_a = 2c_a/Δ (symmetric axes)
+    std::array<bool, 3> symmetric_{};
+    int symmetric_axes_ = 0;
+    std::size_t max_bytes_;
+    std::atomic<std::size_t> bytes_{0};
+    std::unique_ptr<Shard[]> shards_;
+};
 
 }  // namespace airmass::detail
