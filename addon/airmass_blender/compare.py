@@ -450,6 +450,7 @@ class ComparePlan(Plan):
         if not self.blender or not os.path.isfile(self.blender):
             raise SettingsError("Compare with Native: this Blender's executable is unknown (bpy.app.binary_path)")
         self.voxel_size = s.voxel_size if s.voxel_size > 0 else None
+        self.voxel_values = s.voxel_values.lower()  # AUTO/AVERAGE/POINT -> the CLI's names
         self.step_km = s.step_km
         self.max_dense_mb = s.max_dense_mb
         self.work_dir = None
@@ -466,6 +467,7 @@ class ComparePlan(Plan):
                "--samples", str(self.samples), "--sky-samples", str(self.samples), "--seeds", str(self.seeds),
                "--paths", ",".join(self.paths), "--volume-modes", ",".join(self.volume_modes or ["split"]),
                "--step", repr(float(self.step_km)), "--max-dense-mb", repr(float(self.max_dense_mb)),
+               "--voxel-values", self.voxel_values,
                "--progress-json", os.path.join(self.work_dir, PROGRESS_FILE)]
         if self.voxel_size is not None:
             cmd += ["--voxel-size", repr(float(self.voxel_size))]

@@ -18,7 +18,7 @@ import os
 import sys
 import threading
 
-ABI_VERSION = 7
+ABI_VERSION = 8
 LIBRARY_ENV = "AIRMASS_C_LIBRARY"
 # File name of the library per platform (sys.platform prefix → name). The add-on zip carries
 # the Linux and Windows builds and, when the build could cross-compile it, one universal macOS
@@ -182,6 +182,7 @@ class VdbOptions(ctypes.Structure):
         ("tolerance", ctypes.c_double),
         ("max_dense_mb", ctypes.c_double),
         ("tile_voxels", ctypes.c_int32),
+        ("voxel_values", ctypes.c_char_p),
     ]
 
 
@@ -724,11 +725,11 @@ def solar_position(latitude_deg, longitude_deg, utc, delta_t_s=None, site_elevat
 
 
 def _vdb_options(lib, region="planet", unit="km", origin_center=False, voxel_size=None, box=None,
-                 tolerance=None, max_dense_mb=None, tile_voxels=0):
+                 tolerance=None, max_dense_mb=None, tile_voxels=0, voxel_values="auto"):
     opts = VdbOptions()
     _init_struct(lib.airmass_vdb_options_init, opts, "airmass_vdb_options")
-    keep = [_bytes(region), _bytes(unit)]
-    opts.region, opts.unit = keep
+    keep = [_bytes(region), _bytes(unit), _bytes(voxel_values)]
+    opts.region, opts.unit, opts.voxel_values = keep
     opts.origin_center = 1 if origin_center else 0
     opts.voxel_size = _NAN if voxel_size is None else float(voxel_size)
     if box is not None:

@@ -274,6 +274,19 @@ class AirmassSettings(bpy.types.PropertyGroup):
     voxel_size: FloatProperty(
         name="Voxel Size (km)", default=0.0, min=0.0, soft_max=50.0, precision=3,
         description="VDB voxel edge in km; 0 chooses it from the scale heights and the camera")
+    voxel_values: EnumProperty(
+        name="Voxel Values", default="AUTO",
+        items=[("AUTO", "Automatic",
+                "Per constituent: the mean over each voxel's footprint where a voxel spans more than half the "
+                "constituent's thinnest layer and the camera looks across the layer (from above it; the whole "
+                "planet), the density at the voxel's centre otherwise"),
+               ("AVERAGE", "Footprint Mean",
+                "Each voxel the density's mean over its trilinear footprint: the layer's mass at any voxel size "
+                "(right from orbit), but the density at the ground is lost (wrong along the ground)"),
+               ("POINT", "Centre Value",
+                "Each voxel the density at its centre: exact at the ground, but coarse voxels put too much into "
+                "rays across thin layers (26 % at 8 km for Earth's aerosol) and show rings")],
+        description="What a VDB voxel holds (docs/vdb.md, Voxel values); Automatic suits both views")
     view_distance: FloatProperty(
         name="View Distance (km)", default=200.0, min=0.001, soft_max=5000.0,
         description="How far the Camera View region reaches from the camera, km")

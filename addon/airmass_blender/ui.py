@@ -198,6 +198,7 @@ class AIRMASS_PT_world_volume(AirmassWorldPanel, bpy.types.Panel):
         col = layout.column(heading="VDB")
         col.prop(s, "volume_region")
         col.prop(s, "voxel_size")
+        col.prop(s, "voxel_values")
         sub = col.column()
         sub.enabled = s.volume_region == "VIEW"
         sub.prop(s, "view_distance")

@@ -299,8 +299,9 @@ def _check_not_truncated(path):
 def write_volume(spec, folder, stem, progress=None, **options):
     """Plans the volume, fills every grid and writes every file of the plan into `folder`
     atomically. `options`: native._vdb_options keywords (region, unit, voxel_size, box,
-    tolerance, max_dense_mb, tile_voxels). Raises NoOpenVdbModule, native.NativeError (the
-    library's refusals; status CANCELLED when cancelled), OSError; leaves no file then."""
+    tolerance, max_dense_mb, tile_voxels, voxel_values). Raises NoOpenVdbModule,
+    native.NativeError (the library's refusals; status CANCELLED when cancelled), OSError;
+    leaves no file then."""
     vdb = require_module()
     reporter = _Reporter(progress)
     plan = native.vdb_plan(spec, file_stem=stem, progress=progress, progress_range=(0.0, PLAN_SHARE), **options)

@@ -619,7 +619,7 @@ def read_grid_metadata(path):
 
 
 # vdb_export names its options as the CLI spells them; in Blender the panel's names mean more.
-_UI_OPTION_NAMES = (("--voxel-size", "Voxel Size"), ("--max-dense-mb", "Memory Limit (MiB)"),
+_UI_OPTION_NAMES = (("--voxel-size", "Voxel Size"), ("--voxel-values", "Voxel Values"), ("--max-dense-mb", "Memory Limit (MiB)"),
                     ("--max-memory-mb", "the grid memory limit"), ("--region view", "Region: Camera View"),
                     ("--region box", "a box region"), ("--region", "Region"), ("--units", "Length Unit"),
                     ("--tolerance", "tolerance"))
@@ -655,6 +655,7 @@ class VdbPlan(Plan):
         self.path = os.path.join(self.folder, self.stem + ".vdb")
         self.voxel = s.voxel_size * KM / self.unit_m if s.voxel_size > 0 else None
         self.max_dense_mb = s.max_dense_mb
+        self.voxel_values = s.voxel_values.lower()  # AUTO/AVERAGE/POINT -> the library's names
         self.files = []
         self.sun_choice = sun_choice(s)
         self.sun = None  # (columns' table, multiple-scattering table) for the Analytic Sun
@@ -663,7 +664,7 @@ class VdbPlan(Plan):
 
     def options(self):
         return {"region": self.region, "unit": self.unit_name, "voxel_size": self.voxel,
-                "max_dense_mb": self.max_dense_mb}
+                "max_dense_mb": self.max_dense_mb, "voxel_values": self.voxel_values}
 
     def work(self, progress):
         scene = native.validate_scene(self.spec)

@@ -31,6 +31,9 @@ airmass::VdbOptions vdb_options_from(const airmass_vdb_options* o) {
     if (given(o->tolerance)) v.tolerance = o->tolerance;
     if (given(o->max_dense_mb)) v.max_dense_mb = o->max_dense_mb;
     v.tile_voxels = o->tile_voxels;
+    const std::string values = o->voxel_values ? o->voxel_values : "auto";
+    if (const auto choice = airmass::voxel_values_from_name(values)) v.voxel_values = *choice;
+    else throw AbiError(AIRMASS_INVALID_ARGUMENT, "--voxel-values = \"" + values + "\": must be auto, average or point");
     return v;
 }
 
@@ -210,6 +213,7 @@ int32_t airmass_vdb_options_init(airmass_vdb_options* options) {
     options->tolerance = nan;
     options->max_dense_mb = nan;
     options->tile_voxels = 0;
+    options->voxel_values = "auto";
     return AIRMASS_OK;
 }
 

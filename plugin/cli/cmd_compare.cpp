@@ -7,7 +7,8 @@
 // 3.7 through the same child-process runner and report (docs/povray.md).
 //
 //   airmass compare (--preset NAME | SCENE.toml) -o DIR [--width W --height H --samples S
-//       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM --step KM
+//       --seeds K --paths LIST --view-samples N --sky-oversample F --voxel-size KM
+//       --voxel-values auto|average|point --step KM
 //       --max-steps N --blender EXE --python EXE --scripts DIR --addon DIR --threads N
 //       --timeout S --sun-elevation DEG --sun-rotation DEG --volume-modes split,rgb
 //       --camera-position X,Y,Z --camera-direction X,Y,Z --camera-up X,Y,Z --fov DEG
@@ -96,6 +97,7 @@ struct CompareOptions {
     int sky_min_width = 2048;
     int sky_max_width = 8192;
     std::optional<double> voxel_size_km;
+    std::string voxel_values = "auto";
     double max_dense_mb = 600.0;
     std::string blender = "blender";
     std::string povray = "povray";
@@ -536,6 +538,7 @@ void run_compare_steps(const CompareOptions& o, const compare::Plan& plan, Progr
             vo.origin = PlanetOrigin::surface;
             vo.tile_voxels = -1;
             vo.max_dense_mb = o.max_dense_mb;
+            vo.voxel_values = voxel_values_from_name(o.voxel_values).value();  // checked by CLI11
             vo.box = {box->min_m.x / 1e3, box->min_m.y / 1e3, box->min_m.z / 1e3,
                       box->max_m.x / 1e3, box->max_m.y / 1e3, box->max_m.z / 1e3};
             double vs = o.voxel_size_km ? *o.voxel_size_km : auto_voxel_size(scene, vo);
@@ -1013,6 +1016,11 @@ void add_compare_command(CLI::App& app) {
         ->check(int_in(64, 44720));
     cmd->add_option("--voxel-size", o->voxel_size_km, "VDB voxel size, km [default: auto, within --max-dense-mb]")
         ->check(number_in(0.0, 1e6, Ends::open_low));
+    cmd->add_option("--voxel-values", o->voxel_values,
+                    "What the VDB's voxels hold: auto, average (the density's mean over each voxel's footprint) or "
+                    "point (the density at its centre), as for airmass vdb (docs/vdb.md, Voxel values)")
+        ->check(CLI::IsMember({"auto", "average", "point"}))
+        ->capture_default_str();
     cmd->add_option("--max-dense-mb", o->max_dense_mb, "Budget for Blender 3.4's dense VDB boxes, MiB")
         ->capture_default_str()->check(number_in(0.0, 1e12, Ends::open_low));
     cmd->add_option("--step", o->plan.step_km, "Cycles volume step for the analytic volume, km")

@@ -181,9 +181,7 @@ void add_vdb_command(CLI::App& app) {
         opt.rgb = o->rgb == "bruneton"  ? RgbWavelengths::bruneton
                   : o->rgb == "schuler" ? RgbWavelengths::schuler
                                         : RgbWavelengths::automatic;
-        opt.voxel_values = o->voxel_values == "point"     ? VoxelValues::point
-                           : o->voxel_values == "average" ? VoxelValues::average
-                                                          : VoxelValues::automatic;
+        opt.voxel_values = voxel_values_from_name(o->voxel_values).value();  // checked by CLI11
 
         std::optional<tbb::global_control> threads;
         if (o->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(o->threads));

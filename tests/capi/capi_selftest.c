@@ -391,6 +391,45 @@ int main(int argc, char** argv) {
               msg);
     }
 
+    /* ---- voxel values (ABI 8): "auto" by default; each grid's metadata says what its voxels hold —
+     * in a box of 4-km voxels, auto averages the aerosol (a 1.2-km layer) and keeps point values for
+     * Rayleigh (8 km); "point" and "average" apply to every grid; any other name is refused by name. ---- */
+    if (airmass_has_vdb()) {
+        airmass_scene_spec ws;
+        ws.struct_size = sizeof ws;
+        airmass_scene_spec_init(&ws);
+        ws.preset = "earth";
+        airmass_vdb_options wo;
+        wo.struct_size = sizeof wo;
+        airmass_vdb_options_init(&wo);
+        check(wo.voxel_values != NULL && strcmp(wo.voxel_values, "auto") == 0, "vdb options: voxel values auto by default",
+              wo.voxel_values ? wo.voxel_values : "NULL");
+        const double box[6] = {-20.0, -20.0, 0.0, 20.0, 20.0, 20.0};
+        wo.region = "box";
+        memcpy(wo.box, box, sizeof box);
+        wo.voxel_size = 4.0;
+        const char* names[3] = {"auto", "point", "average"};
+        const int want_average[3] = {1, 0, 1}, want_point[3] = {1, 1, 0};
+        for (int k = 0; k < 3; ++k) {
+            wo.voxel_values = names[k];
+            char* plan = NULL;
+            const int32_t s = airmass_vdb_plan(&ws, &wo, NULL, NULL, &plan, msg, sizeof msg);
+            const int has_average = plan && contains(plan, "\"airmass:voxel_values\":\"average\"");
+            const int has_point = plan && contains(plan, "\"airmass:voxel_values\":\"point\"");
+            snprintf(detail, sizeof detail, "%s: status %d %s, grids averaged %d, point %d", names[k], (int)s, msg,
+                     has_average, has_point);
+            check(s == AIRMASS_OK && has_average == want_average[k] && has_point == want_point[k],
+                  "vdb plan: the grids' voxel values follow the option", detail);
+            if (plan) airmass_string_free(plan);
+        }
+        wo.voxel_values = "mean";
+        char* bad = NULL;
+        const int32_t s = airmass_vdb_plan(&ws, &wo, NULL, NULL, &bad, msg, sizeof msg);
+        check(s == AIRMASS_INVALID_ARGUMENT && bad == NULL && contains(msg, "voxel-values") &&
+                  contains(msg, "auto, average or point"),
+              "vdb plan: an unknown voxel_values name refused, naming the field and the choices", msg);
+    }
+
     /* ---- the sun lamp ---- */
     {
         airmass_sun_light sun;

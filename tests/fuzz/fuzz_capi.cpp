@@ -71,6 +71,9 @@ constexpr const char* kPresets[] = {"earth", "earth-hazy", "mars", "atmosphere-p
 constexpr const char* kChapman[] = {nullptr, "airmass", "exact", "no-such-method", ""};
 constexpr const char* kRegions[] = {"planet", "view", "box", "nowhere", nullptr};
 constexpr const char* kUnits[] = {"km", "m", "mm", nullptr};
+// ABI 8's voxel values; chosen from the bytes after the rest (so the corpus keeps its meaning:
+// an input that ends there gets "auto", the default).
+constexpr const char* kVoxelValues[] = {"auto", "average", "point", "mean", nullptr};
 
 void init(Call& c) {
     c.spec.struct_size = sizeof c.spec;  // C ABI 4+: the host sets it, *_init checks it
@@ -288,6 +291,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         fill_wild(in, c);
     else
         fill_tame(in, c);
+    c.vdb.voxel_values = kVoxelValues[in.ConsumeIntegralInRange<int>(0, wild ? 4 : 2)];
     const airmass_scene_spec& spec = c.spec;
     airmass_sky_options& sky = c.sky;
     const airmass_vdb_options& vdb = c.vdb;

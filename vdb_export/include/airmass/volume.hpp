@@ -85,6 +85,8 @@ enum class VoxelValues {
     point,
 };
 std::string_view voxel_values_name(VoxelValues v);  // "auto", "average", "point"
+// The choice of that name; nullopt for any other (the caller names its field in the error).
+std::optional<VoxelValues> voxel_values_from_name(std::string_view name);
 
 struct VdbOptions {
     VdbRegion region = VdbRegion::planet;

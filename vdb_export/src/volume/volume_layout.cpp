@@ -72,6 +72,11 @@ std::string_view voxel_values_name(VoxelValues v) {
     }
     return "?";
 }
+std::optional<VoxelValues> voxel_values_from_name(std::string_view name) {
+    for (VoxelValues v : {VoxelValues::automatic, VoxelValues::average, VoxelValues::point})
+        if (name == voxel_values_name(v)) return v;
+    return std::nullopt;
+}
 
 namespace {
 

@@ -42,7 +42,7 @@ extern "C" {
 #define AIRMASS_C_API __attribute__((visibility("default")))
 #endif
 
-#define AIRMASS_C_ABI_VERSION 7  /* 2: airmass_sky_options.multiple_scattering
+#define AIRMASS_C_ABI_VERSION 8  /* 2: airmass_sky_options.multiple_scattering
                                     3: no files: the sky and the volume grids are returned as
                                        float buffers that the host writes (Blender's image API,
                                        its own OpenVDB module); airmass_write_sky_exr and
@@ -56,7 +56,9 @@ extern "C" {
                                        direction); airmass_sky_options gains multiple_grid and
                                        multiple_samples (its size differs from ABI 5's)
                                     7: airmass_sun_column_table, airmass_sun_ms_table (added;
-                                       nothing else changed) */
+                                       nothing else changed)
+                                    8: airmass_vdb_options gains voxel_values (its size differs
+                                       from ABI 7's) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -316,10 +318,13 @@ typedef struct airmass_vdb_options {
     double tolerance;         /* NaN: default (1e-4)                                            */
     double max_dense_mb;      /* NaN: default (1024)                                            */
     int32_t tile_voxels;      /* 0 automatic tiling, -1 one tile, N > 0 tiles of N voxels       */
+    const char* voxel_values; /* "auto" | "average" | "point" (NULL: auto): what a voxel holds,
+                                 the density's mean over its trilinear footprint or the density at
+                                 its centre; auto chooses per constituent (docs/vdb.md, Voxel values) */
 } airmass_vdb_options;
 
 /* Defaults: region "planet", unit "km", origin on the surface, automatic voxel size, default
- * tolerance and dense limit (NaN), automatic tiling. */
+ * tolerance and dense limit (NaN), automatic tiling, voxel values "auto". */
 AIRMASS_C_API int32_t airmass_vdb_options_init(airmass_vdb_options* options); /* struct_size set first */
 
 /* The plan of the volume, as JSON in `*plan_json` (free with airmass_string_free). Runs the
