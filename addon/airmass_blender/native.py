@@ -758,66 +758,123 @@ _SIGNATURES.update({
     "airmass_vdb_plan": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions), ctypes.c_char_p,
                                           ctypes.POINTER(Job), _OUT, ctypes.c_void_p, _SIZE]),
     "airmass_vdb_block_init": (ctypes.c_int32, [ctypes.POINTER(VdbBlock)]),
+    "airmass_vdb_session_create": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
+                                                    ctypes.POINTER(ctypes.c_void_p), ctypes.c_void_p, _SIZE]),
+    "airmass_vdb_session_plan": (ctypes.c_int32, [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(Job), _OUT,
+                                                  ctypes.c_void_p, _SIZE]),
+    "airmass_vdb_session_grid_values": (ctypes.c_int32, [ctypes.c_void_p, ctypes.POINTER(VdbBlock),
+                                                         ctypes.POINTER(ctypes.c_float), _SIZE, ctypes.POINTER(Job),
+                                                         ctypes.c_void_p, _SIZE]),
+    "airmass_vdb_session_free": (None, [ctypes.c_void_p]),
     "airmass_vdb_grid_values": (ctypes.c_int32, [ctypes.POINTER(SceneSpec), ctypes.POINTER(VdbOptions),
                                                  ctypes.POINTER(VdbBlock), ctypes.POINTER(ctypes.c_float), _SIZE,
                                                  ctypes.POINTER(Job), ctypes.c_void_p, _SIZE]),
 })
 
 
+class VdbSession:
+    """One volume layout, its plan and all its grids' values (airmass_vdb_session_*, C ABI 8): the
+    layout is resolved once, and the voxel means the plan's pass computes — once per class of
+    voxels the planet's symmetry makes equal — serve every block asked afterwards (docs/vdb.md,
+    Voxel values, Cost). `vdb`: _vdb_options' keywords. close() (or the garbage collector, or a
+    `with` block) frees it. Thread-safe."""
+
+    def __init__(self, spec, **vdb):
+        self._lib = lib = library()
+        self._handle = None
+        c_spec, keep = spec._to_c(lib)
+        opts, keep2 = _vdb_options(lib, **vdb)
+        handle = ctypes.c_void_p()
+        buf = _message_buffer()
+        status = lib.airmass_vdb_session_create(ctypes.byref(c_spec), ctypes.byref(opts), ctypes.byref(handle), buf,
+                                                _MESSAGE_SIZE)
+        del keep, keep2
+        _check(lib, status, buf)
+        self._handle = handle.value
+
+    def _open(self):
+        if not self._handle:
+            raise NativeError(INVALID_ARGUMENT, "vdb session: closed")
+        return self._lib
+
+    def plan(self, file_stem=None, progress=None, progress_range=(0.0, 1.0)):
+        """The volume's plan: grids with their boxes, transform and metadata, files, limits
+        already checked. A long call (the sampling pass)."""
+        lib = self._open()
+        out = ctypes.c_void_p()
+        buf = _message_buffer()
+        job_ptr, fn = None, None
+        if progress is not None:
+            job, fn = progress._job(*progress_range)
+            job_ptr = ctypes.byref(job)
+        stem = _bytes(file_stem) if file_stem is not None else None
+        status = lib.airmass_vdb_session_plan(self._handle, stem, job_ptr, ctypes.byref(out), buf, _MESSAGE_SIZE)
+        del fn, stem
+        _check(lib, status, buf)
+        return json.loads(_take_string(lib, out))
+
+    def grid_values(self, grid, box_min, box_max, progress=None, progress_range=(0.0, 1.0), threads=0, out=None):
+        """One grid's densities over the index box [box_min, box_max] (inclusive) as a C-ordered
+        float32 numpy array a[i][j][k] = voxel box_min + (i, j, k) — what OpenVDB's Python
+        `grid.copyFromArray(a, ijk=box_min)` reads; 0 where inactive. `out`: an array of that
+        shape and dtype to fill instead of a new one."""
+        import numpy as np
+        lib = self._open()
+        shape = tuple(int(b) - int(a) + 1 for a, b in zip(box_min, box_max))
+        if out is None:
+            out = np.empty(tuple(max(0, n) for n in shape), dtype=np.float32)
+        elif out.dtype != np.float32 or not out.flags["C_CONTIGUOUS"] or out.shape != shape:
+            raise ValueError("out: a C-contiguous float32 array of shape %s, not %s %s" % (shape, out.dtype, out.shape))
+        block = VdbBlock()
+        _init_struct(lib.airmass_vdb_block_init, block, "airmass_vdb_block")
+        name = _bytes(grid)
+        block.grid = name
+        for a in range(3):
+            block.min[a] = int(box_min[a])
+            block.max[a] = int(box_max[a])
+        block.threads = int(threads)
+        buf = _message_buffer()
+        job_ptr, fn = None, None
+        if progress is not None:
+            job, fn = progress._job(*progress_range)
+            job_ptr = ctypes.byref(job)
+        status = lib.airmass_vdb_session_grid_values(self._handle, ctypes.byref(block),
+                                                     out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size,
+                                                     job_ptr, buf, _MESSAGE_SIZE)
+        del fn, name
+        _check(lib, status, buf)
+        return out
+
+    def close(self):
+        if self._handle:
+            self._lib.airmass_vdb_session_free(self._handle)
+            self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
 def vdb_plan(spec, file_stem=None, progress=None, progress_range=(0.0, 1.0), **vdb):
-    """The volume's plan (airmass_vdb_plan): grids with their boxes, transform and metadata,
-    files, limits already checked. A long call (the sampling pass)."""
-    lib = library()
-    c_spec, keep = spec._to_c(lib)
-    opts, keep2 = _vdb_options(lib, **vdb)
-    out = ctypes.c_void_p()
-    buf = _message_buffer()
-    job_ptr, fn = None, None
-    if progress is not None:
-        job, fn = progress._job(*progress_range)
-        job_ptr = ctypes.byref(job)
-    stem = _bytes(file_stem) if file_stem is not None else None
-    status = lib.airmass_vdb_plan(ctypes.byref(c_spec), ctypes.byref(opts), stem, job_ptr, ctypes.byref(out), buf,
-                                  _MESSAGE_SIZE)
-    del keep, keep2, fn, stem
-    _check(lib, status, buf)
-    return json.loads(_take_string(lib, out))
+    """The volume's plan (VdbSession.plan of a session of its own)."""
+    with VdbSession(spec, **vdb) as session:
+        return session.plan(file_stem, progress, progress_range)
 
 
 def vdb_grid_values(spec, grid, box_min, box_max, progress=None, progress_range=(0.0, 1.0), threads=0, out=None,
                     **vdb):
-    """One grid's densities over the index box [box_min, box_max] (inclusive) as a C-ordered
-    float32 numpy array a[i][j][k] = voxel box_min + (i, j, k) — what OpenVDB's Python
-    `grid.copyFromArray(a, ijk=box_min)` reads; 0 where inactive. `out`: an array of that
-    shape and dtype to fill instead of a new one."""
-    import numpy as np
-    lib = library()
-    shape = tuple(int(b) - int(a) + 1 for a, b in zip(box_min, box_max))
-    if out is None:
-        out = np.empty(tuple(max(0, n) for n in shape), dtype=np.float32)
-    elif out.dtype != np.float32 or not out.flags["C_CONTIGUOUS"] or out.shape != shape:
-        raise ValueError("out: a C-contiguous float32 array of shape %s, not %s %s" % (shape, out.dtype, out.shape))
-    c_spec, keep = spec._to_c(lib)
-    opts, keep2 = _vdb_options(lib, **vdb)
-    block = VdbBlock()
-    _init_struct(lib.airmass_vdb_block_init, block, "airmass_vdb_block")
-    name = _bytes(grid)
-    block.grid = name
-    for a in range(3):
-        block.min[a] = int(box_min[a])
-        block.max[a] = int(box_max[a])
-    block.threads = int(threads)
-    buf = _message_buffer()
-    job_ptr, fn = None, None
-    if progress is not None:
-        job, fn = progress._job(*progress_range)
-        job_ptr = ctypes.byref(job)
-    status = lib.airmass_vdb_grid_values(ctypes.byref(c_spec), ctypes.byref(opts), ctypes.byref(block),
-                                         out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size, job_ptr,
-                                         buf, _MESSAGE_SIZE)
-    del keep, keep2, fn, name
-    _check(lib, status, buf)
-    return out
+    """One grid's densities over a box (VdbSession.grid_values of a session of its own: the
+    voxel means are computed afresh — a whole volume asks one session for all its blocks)."""
+    with VdbSession(spec, **vdb) as session:
+        return session.grid_values(grid, box_min, box_max, progress, progress_range, threads, out)
 
 
 def analytic_density(spec, **vdb):

@@ -1,9 +1,9 @@
 """The atmosphere's OpenVDB grids, written through the running Blender's own OpenVDB module.
 
 The native library carries no OpenVDB (it must load in any Blender): it plans the volume and
-returns each grid's densities as dense float blocks (native.vdb_plan, native.vdb_grid_values;
-airmass_c.h "Volumes"). This module turns them into grids and files with the OpenVDB Python
-module the running Blender has:
+returns each grid's densities as dense float blocks (native.VdbSession: its plan, then each
+block's values; airmass_c.h "Volumes", "VDB sessions"). This module turns them into grids and
+files with the OpenVDB Python module the running Blender has:
 
     Blender ≥ 4.4 (OpenVDB 12, nanobind)  `openvdb`
     Blender 3.x – 4.3, Debian's 3.4       `pyopenvdb`
@@ -236,7 +236,7 @@ def with_guards(values, origin, cube, guard_value):
     return out, int(np.count_nonzero(guards))
 
 
-def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
+def build_grid(vdb, session, plan, grid, reporter, done, total):
     """One grid of the plan, filled block by block. `done`/`total`: dense voxels for progress.
     Several tiles: the blocks cover the grid's dense box (values and guards); each is fetched with
     one more layer on either side along i (clipped to the box), so that a guard's neighbours in
@@ -263,13 +263,13 @@ def build_grid(vdb, spec, plan, grid, options, reporter, done, total):
         end = PLAN_SHARE + (1.0 - PLAN_SHARE) * (done + n) / total
         reporter.check()
         if cube is None:
-            values = native.vdb_grid_values(spec, grid["name"], lo, hi, progress=reporter.progress,
-                                            progress_range=(start, end), **options)
+            values = session.grid_values(grid["name"], lo, hi, progress=reporter.progress,
+                                         progress_range=(start, end))
         else:
             flo = (max(box_min[0], lo[0] - 1), lo[1], lo[2])
             fhi = (min(box_max[0], hi[0] + 1), hi[1], hi[2])
-            fetched = native.vdb_grid_values(spec, grid["name"], flo, fhi, progress=reporter.progress,
-                                             progress_range=(start, end), **options)
+            fetched = session.grid_values(grid["name"], flo, fhi, progress=reporter.progress,
+                                          progress_range=(start, end))
             tiled, _ = with_guards(fetched, flo, cube, plan["guard_value"])
             values = tiled[lo[0] - flo[0]:hi[0] - flo[0] + 1].copy()
             guards += int((values == tiled.dtype.type(plan["guard_value"])).sum())
@@ -304,7 +304,13 @@ def write_volume(spec, folder, stem, progress=None, **options):
     leaves no file then."""
     vdb = require_module()
     reporter = _Reporter(progress)
-    plan = native.vdb_plan(spec, file_stem=stem, progress=progress, progress_range=(0.0, PLAN_SHARE), **options)
+    # One session for the plan and every block: the voxel means its pass computes serve them all.
+    with native.VdbSession(spec, **options) as session:
+        return _write_volume(vdb, session, folder, stem, reporter, progress)
+
+
+def _write_volume(vdb, session, folder, stem, reporter, progress):
+    plan = session.plan(stem, progress=progress, progress_range=(0.0, PLAN_SHARE))
     reporter.at(PLAN_SHARE)
     total = max(1, sum(int(g["dense_voxels"]) for g in plan["grids"]))  # the dense boxes (with guards)
     pending = []  # (temporary, destination)
@@ -314,7 +320,7 @@ def write_volume(spec, folder, stem, progress=None, **options):
         for f in plan["files"]:
             grids = []
             for index in f["grids"]:
-                g, done = build_grid(vdb, spec, plan, plan["grids"][index], options, reporter, done, total)
+                g, done = build_grid(vdb, session, plan, plan["grids"][index], reporter, done, total)
                 grids.append(g)
             dest = os.path.join(folder, f["name"])
             tmp = temporary_path(dest)

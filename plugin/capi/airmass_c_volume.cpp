@@ -194,8 +194,63 @@ void check_sun_table_buffer(const char* what, int32_t mu_size, int32_t r_size, c
                                                      std::to_string(expected));
 }
 
+// The plan of the sampler's layout as JSON (airmass_vdb_plan, airmass_vdb_session_plan).
+void plan_into(const airmass::VolumeSampler& sampler, const char* file_stem, const airmass_job* job, char** plan_out) {
+    if (!plan_out) throw AbiError(AIRMASS_INVALID_ARGUMENT, "plan_json: NULL pointer");
+    const std::string stem = file_stem ? file_stem : "atmosphere";
+    if (stem.empty() || stem.find_first_of("/\\") != std::string::npos)
+        throw AbiError(AIRMASS_INVALID_ARGUMENT,
+                       "file_stem = \"" + stem + "\": must be a non-empty file name without a folder");
+    std::string text;
+    run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
+        airmass::VolumeRunOptions run;
+        run.cancel = &cancel;
+        run.progress = [&](double f) { fraction.store(std::clamp(f, 0.0, 1.0), std::memory_order_relaxed); };
+        text = plan_json(airmass::plan_volume(sampler, run), stem);
+    });
+    *plan_out = duplicate(text);
+}
+
+// One grid's dense block (airmass_vdb_grid_values, airmass_vdb_session_grid_values).
+void grid_values_into(const airmass::VolumeSampler& sampler, const airmass_vdb_block* block, float* values,
+                      size_t float_count, const airmass_job* job) {
+    const airmass::VdbLayout& layout = sampler.layout();
+    require_struct(block, "block");
+    if (block->threads < 0)
+        throw AbiError(AIRMASS_INVALID_ARGUMENT,
+                       "block.threads = " + std::to_string(block->threads) + ": must be >= 0 (0: all hardware threads)");
+    if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
+    const std::size_t c = grid_index(block->grid, layout);
+    const airmass::VoxelBox box = block_box(*block, layout);
+    if (std::uint64_t(float_count) != box.volume())
+        throw AbiError(AIRMASS_INVALID_ARGUMENT,
+                       "float_count = " + std::to_string(float_count) + ": must be nx x ny x nz = " +
+                           std::to_string(box.dim(0)) + " x " + std::to_string(box.dim(1)) + " x " +
+                           std::to_string(box.dim(2)) + " = " + std::to_string(box.volume()) + " for block.min " +
+                           box_text(block->min) + " to block.max " + box_text(block->max));
+    run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
+        airmass::VolumeRunOptions run;
+        run.cancel = &cancel;
+        run.threads = block->threads;
+        run.progress = [&](double f) { fraction.store(std::clamp(f, 0.0, 1.0), std::memory_order_relaxed); };
+        airmass::sample_volume_box(sampler, c, box, std::span<float>(values, float_count), run);
+    });
+}
+
 }  // namespace
 }  // namespace airmass::capi
+
+// A VDB session: the scene, the layout resolved from it (its constituents point into the scene)
+// and the sampler (which refers to the layout): built in place, never moved.
+struct airmass_vdb_session {
+    airmass::Scene scene;
+    airmass::VdbLayout layout;
+    airmass::VolumeSampler sampler;
+    airmass_vdb_session(airmass::Scene s, const airmass::VdbOptions& options)
+        : scene(std::move(s)), layout(airmass::resolve_vdb_layout(scene, options)), sampler(layout) {}
+    airmass_vdb_session(const airmass_vdb_session&) = delete;
+    airmass_vdb_session& operator=(const airmass_vdb_session&) = delete;
+};
 
 using namespace airmass::capi;
 
@@ -234,21 +289,10 @@ int32_t airmass_vdb_plan(const airmass_scene_spec* spec, const airmass_vdb_optio
                          const airmass_job* job, char** plan_out, char* message, size_t message_size) {
     return guarded(message, message_size, [&] {
         const airmass::VdbOptions vdb = vdb_options_from(options);
-        if (!plan_out) throw AbiError(AIRMASS_INVALID_ARGUMENT, "plan_json: NULL pointer");
-        const std::string stem = file_stem ? file_stem : "atmosphere";
-        if (stem.empty() || stem.find_first_of("/\\") != std::string::npos)
-            throw AbiError(AIRMASS_INVALID_ARGUMENT,
-                           "file_stem = \"" + stem + "\": must be a non-empty file name without a folder");
         const Scene scene = build_scene(spec);
         const airmass::VdbLayout layout = airmass::resolve_vdb_layout(scene, vdb);
-        std::string text;
-        run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
-            airmass::VolumeRunOptions run;
-            run.cancel = &cancel;
-            run.progress = [&](double f) { fraction.store(std::clamp(f, 0.0, 1.0), std::memory_order_relaxed); };
-            text = plan_json(airmass::plan_volume(layout, run), stem);
-        });
-        *plan_out = duplicate(text);
+        const airmass::VolumeSampler sampler(layout);
+        plan_into(sampler, file_stem, job, plan_out);
     });
 }
 
@@ -257,31 +301,41 @@ int32_t airmass_vdb_grid_values(const airmass_scene_spec* spec, const airmass_vd
                                 const airmass_job* job, char* message, size_t message_size) {
     return guarded(message, message_size, [&] {
         const airmass::VdbOptions vdb = vdb_options_from(options);
-        require_struct(block, "block");
-        if (block->threads < 0)
-            throw AbiError(AIRMASS_INVALID_ARGUMENT,
-                           "block.threads = " + std::to_string(block->threads) + ": must be >= 0 (0: all hardware threads)");
-        if (!values) throw AbiError(AIRMASS_INVALID_ARGUMENT, "values: NULL pointer");
         const Scene scene = build_scene(spec);
         const airmass::VdbLayout layout = airmass::resolve_vdb_layout(scene, vdb);
-        const std::size_t c = grid_index(block->grid, layout);
-        const airmass::VoxelBox box = block_box(*block, layout);
-        if (std::uint64_t(float_count) != box.volume())
-            throw AbiError(AIRMASS_INVALID_ARGUMENT,
-                           "float_count = " + std::to_string(float_count) + ": must be nx x ny x nz = " +
-                               std::to_string(box.dim(0)) + " x " + std::to_string(box.dim(1)) + " x " +
-                               std::to_string(box.dim(2)) + " = " + std::to_string(box.volume()) +
-                               " for block.min " + box_text(block->min) + " to block.max " + box_text(block->max));
         const airmass::VolumeSampler sampler(layout);
-        run_job(job, [&](const airmass::CancelFlag& cancel, std::atomic<double>& fraction) {
-            airmass::VolumeRunOptions run;
-            run.cancel = &cancel;
-            run.threads = block->threads;
-            run.progress = [&](double f) { fraction.store(std::clamp(f, 0.0, 1.0), std::memory_order_relaxed); };
-            airmass::sample_volume_box(sampler, c, box, std::span<float>(values, float_count), run);
-        });
+        grid_values_into(sampler, block, values, float_count, job);
     });
 }
+
+int32_t airmass_vdb_session_create(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                   airmass_vdb_session** out, char* message, size_t message_size) {
+    if (out) *out = nullptr;
+    return guarded(message, message_size, [&] {
+        const airmass::VdbOptions vdb = vdb_options_from(options);
+        if (!out) throw AbiError(AIRMASS_INVALID_ARGUMENT, "out: NULL pointer");
+        *out = new airmass_vdb_session(build_scene(spec), vdb);
+    });
+}
+
+int32_t airmass_vdb_session_plan(const airmass_vdb_session* session, const char* file_stem, const airmass_job* job,
+                                 char** plan_out, char* message, size_t message_size) {
+    return guarded(message, message_size, [&] {
+        if (!session) throw AbiError(AIRMASS_INVALID_ARGUMENT, "session: NULL pointer");
+        plan_into(session->sampler, file_stem, job, plan_out);
+    });
+}
+
+int32_t airmass_vdb_session_grid_values(const airmass_vdb_session* session, const airmass_vdb_block* block,
+                                        float* values, size_t float_count, const airmass_job* job, char* message,
+                                        size_t message_size) {
+    return guarded(message, message_size, [&] {
+        if (!session) throw AbiError(AIRMASS_INVALID_ARGUMENT, "session: NULL pointer");
+        grid_values_into(session->sampler, block, values, float_count, job);
+    });
+}
+
+void airmass_vdb_session_free(airmass_vdb_session* session) { delete session; }
 
 int32_t airmass_analytic_density_json(const airmass_scene_spec* spec, const airmass_vdb_options* options,
                                       char** json, char* message, size_t message_size) {

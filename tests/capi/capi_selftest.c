@@ -428,6 +428,50 @@ int main(int argc, char** argv) {
         check(s == AIRMASS_INVALID_ARGUMENT && bad == NULL && contains(msg, "voxel-values") &&
                   contains(msg, "auto, average or point"),
               "vdb plan: an unknown voxel_values name refused, naming the field and the choices", msg);
+        airmass_vdb_session* bad_session = (airmass_vdb_session*)&ws;  /* must come back NULL */
+        const int32_t sb = airmass_vdb_session_create(&ws, &wo, &bad_session, msg, sizeof msg);
+        check(sb == AIRMASS_INVALID_ARGUMENT && bad_session == NULL && contains(msg, "voxel-values"),
+              "vdb session: an unknown voxel_values name refused, no session", msg);
+
+        /* A session (ABI 8) gives the stateless calls' plan and values: the aerosol's means over a
+         * block of the box, from the session after its plan and from airmass_vdb_grid_values. */
+        wo.voxel_values = "average";
+        airmass_vdb_session* session = NULL;
+        const int32_t sc = airmass_vdb_session_create(&ws, &wo, &session, msg, sizeof msg);
+        check(sc == AIRMASS_OK && session != NULL, "vdb session: created", msg);
+        if (session) {
+            char* plan = NULL;
+            const int32_t sp = airmass_vdb_session_plan(session, "box", NULL, &plan, msg, sizeof msg);
+            check(sp == AIRMASS_OK && plan && contains(plan, "\"airmass:voxel_values\":\"average\"") &&
+                      contains(plan, "box.vdb"),
+                  "vdb session: the plan (file stem, voxel values)", sp == AIRMASS_OK ? "ok" : msg);
+            if (plan) airmass_string_free(plan);
+            airmass_vdb_block block;
+            block.struct_size = sizeof block;
+            airmass_vdb_block_init(&block);
+            block.grid = "mie";
+            const int32_t lo[3] = {-5, -5, 0}, hi[3] = {5, 5, 5};
+            memcpy(block.min, lo, sizeof lo);
+            memcpy(block.max, hi, sizeof hi);
+            enum { N = 11 * 11 * 6 };
+            static float a[N], b[N];
+            const int32_t s1 = airmass_vdb_session_grid_values(session, &block, a, N, NULL, msg, sizeof msg);
+            const int32_t s2 = airmass_vdb_grid_values(&ws, &wo, &block, b, N, NULL, msg, sizeof msg);
+            int nonzero = 0;
+            for (int k = 0; k < N; ++k) nonzero += a[k] != 0.0f;
+            snprintf(detail, sizeof detail, "status %d / %d (%s), %d nonzero of %d", (int)s1, (int)s2, msg, nonzero, N);
+            check(s1 == AIRMASS_OK && s2 == AIRMASS_OK && nonzero > 0 && memcmp(a, b, sizeof a) == 0,
+                  "vdb session: a block's values are the stateless call's, bit for bit", detail);
+            block.grid = "dust";
+            const int32_t s3 = airmass_vdb_session_grid_values(session, &block, a, N, NULL, msg, sizeof msg);
+            check(s3 == AIRMASS_INVALID_ARGUMENT && contains(msg, "dust"), "vdb session: an unknown grid refused", msg);
+            airmass_vdb_session_free(session);
+        }
+        char* none = NULL;
+        const int32_t sn = airmass_vdb_session_plan(NULL, NULL, NULL, &none, msg, sizeof msg);
+        check(sn == AIRMASS_INVALID_ARGUMENT && none == NULL && contains(msg, "session"),
+              "vdb session: a NULL session refused", msg);
+        airmass_vdb_session_free(NULL);
     }
 
     /* ---- the sun lamp ---- */

@@ -71,8 +71,7 @@ constexpr const char* kPresets[] = {"earth", "earth-hazy", "mars", "atmosphere-p
 constexpr const char* kChapman[] = {nullptr, "airmass", "exact", "no-such-method", ""};
 constexpr const char* kRegions[] = {"planet", "view", "box", "nowhere", nullptr};
 constexpr const char* kUnits[] = {"km", "m", "mm", nullptr};
-// ABI 8's voxel values; chosen from the bytes after the rest (so the corpus keeps its meaning:
-// an input that ends there gets "auto", the default).
+// ABI 8's voxel values (an exhausted input gets "auto", the default).
 constexpr const char* kVoxelValues[] = {"auto", "average", "point", "mean", nullptr};
 
 void init(Call& c) {
@@ -461,8 +460,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         for (int k = 0; k < 3; ++k) n *= std::max<int64_t>(0, int64_t(block.max[k]) - block.min[k] + 1);
         std::vector<float> values(size_t(n) + 1, -1.0f);
         if (status_ok(airmass_vdb_grid_values(&spec, &vdb, &block, values.data(), size_t(n), nullptr, msg,
-                                              message_size)))
+                                              message_size))) {
             airmass::fuzz::require_finite_non_negative<float>(std::span(values.data(), size_t(n)), "vdb value");
+            // The same block from a session (ABI 8): accepted too, the same values bit for bit.
+            airmass_vdb_session* session = nullptr;
+            require(status_ok(airmass_vdb_session_create(&spec, &vdb, &session, msg, message_size)) && session,
+                    "a VDB session refused what the stateless calls accepted");
+            std::vector<float> again(size_t(n) + 1, -1.0f);
+            require(status_ok(airmass_vdb_session_grid_values(session, &block, again.data(), size_t(n), nullptr, msg,
+                                                              message_size)),
+                    "a VDB session's block refused where the stateless call's was accepted");
+            require(std::memcmp(again.data(), values.data(), sizeof(float) * size_t(n)) == 0,
+                    "a VDB session's block differs from the stateless call's");
+            airmass_vdb_session_free(session);
+        }
     }
     if (json) airmass_string_free(json);
     return 0;

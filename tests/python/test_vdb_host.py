@@ -255,3 +255,24 @@ def test_c_abi_refuses_bad_block_requests_naming_the_field(library):
             _expect(lambda: call(p), native.CANCELLED, "cancel")
         finally:
             p.close()
+
+
+def test_vdb_session_serves_the_plan_and_every_block(library):
+    """native.VdbSession (C ABI 8): the plan and the blocks of one layout from one session give the
+    stateless calls' values, the planet's voxel means computed once (a planet at 200-km voxels: a
+    few seconds' worth of means otherwise asked per block); a closed session is refused by name."""
+    native = _native(library)
+    spec = native.Spec(preset="earth")
+    opts = {"region": "planet", "voxel_size": 200.0, "voxel_values": "average"}
+    with native.VdbSession(spec, **opts) as session:
+        plan = session.plan("p")
+        assert {g["name"] for g in plan["grids"]} == {"rayleigh", "mie", "ozone"}
+        for g in plan["grids"]:
+            assert g["metadata"]["airmass:voxel_values"] == "average"
+            lo, hi = g["bbox_min"], g["bbox_max"]
+            got = session.grid_values(g["name"], lo, hi)
+            assert int((got != 0).sum()) == g["active_voxels"] > 0
+            assert np.array_equal(got, native.vdb_grid_values(spec, g["name"], lo, hi, **opts)), g["name"]
+    _expect(lambda: session.plan("p"), native.INVALID_ARGUMENT, "vdb session: closed")
+    _expect(lambda: native.VdbSession(spec, voxel_values="mean"), native.INVALID_ARGUMENT, "--voxel-values",
+            "auto, average or point")

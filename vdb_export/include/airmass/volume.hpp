@@ -381,6 +381,9 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
 
 // sample_volume + make_volume_plan (the sampling's values are not kept).
 VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run = {});
+// The same with the caller's sampler (its layout), whose store of voxel means the pass fills
+// for the blocks asked of it afterwards (sample_volume_box with the same sampler).
+VolumePlan plan_volume(const VolumeSampler& sampler, const VolumeRunOptions& run = {});
 
 // ---- dense blocks ------------------------------------------------------------------------
 

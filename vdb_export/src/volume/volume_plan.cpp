@@ -311,13 +311,17 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
     return plan;
 }
 
-VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run) {
+VolumePlan plan_volume(const VolumeSampler& sampler, const VolumeRunOptions& run) {
     const auto t0 = std::chrono::steady_clock::now();
-    const VolumeSampler sampler(layout);
     const std::vector<VolumeLeaf> leaves = sample_volume(sampler, run);
-    VolumePlan plan = make_volume_plan(layout, leaves);
+    VolumePlan plan = make_volume_plan(sampler.layout(), leaves);
     plan.stats.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return plan;
+}
+
+VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run) {
+    const VolumeSampler sampler(layout);
+    return plan_volume(sampler, run);
 }
 
 }  // namespace airmass

@@ -58,7 +58,7 @@ extern "C" {
                                     7: airmass_sun_column_table, airmass_sun_ms_table (added;
                                        nothing else changed)
                                     8: airmass_vdb_options gains voxel_values (its size differs
-                                       from ABI 7's) */
+                                       from ABI 7's); VDB sessions (airmass_vdb_session_*) */
 
 typedef enum airmass_status {
     AIRMASS_OK = 0,
@@ -382,6 +382,34 @@ AIRMASS_C_API int32_t airmass_vdb_block_init(airmass_vdb_block* block); /* struc
 AIRMASS_C_API int32_t airmass_vdb_grid_values(const airmass_scene_spec* spec, const airmass_vdb_options* options,
                                               const airmass_vdb_block* block, float* values, size_t float_count,
                                               const airmass_job* job, char* message, size_t message_size);
+
+/* ---- VDB sessions (ABI 8): one layout, its plan and all its grids' values -------------------
+ * airmass_vdb_plan and airmass_vdb_grid_values resolve the layout and sample afresh at every call.
+ * A session resolves it once and keeps the sampler, whose store holds each voxel mean that needs
+ * quadrature once for all the voxels the planet's symmetry makes equal (docs/vdb.md, Voxel values,
+ * Cost): the plan's pass fills it and the blocks asked after it look the means up instead of
+ * computing them again — for Earth's whole planet the difference between seconds and half a
+ * minute. The values are those of the stateless calls with the same spec and options.
+ *   1. airmass_vdb_session_create(spec, options, &session, ...): the scene and the layout (cheap);
+ *   2. airmass_vdb_session_plan(session, file_stem, job, &plan_json, ...): as airmass_vdb_plan;
+ *   3. airmass_vdb_session_grid_values(session, block, values, ...), per grid or part of one: as
+ *      airmass_vdb_grid_values;
+ *   4. airmass_vdb_session_free(session).
+ * Calls on one session may run at once on several threads. */
+typedef struct airmass_vdb_session airmass_vdb_session;
+
+/* `*out` receives the session (NULL on failure); the errors are airmass_vdb_plan's option and
+ * scene refusals. */
+AIRMASS_C_API int32_t airmass_vdb_session_create(const airmass_scene_spec* spec, const airmass_vdb_options* options,
+                                                 airmass_vdb_session** out, char* message, size_t message_size);
+AIRMASS_C_API int32_t airmass_vdb_session_plan(const airmass_vdb_session* session, const char* file_stem,
+                                               const airmass_job* job, char** plan_json, char* message,
+                                               size_t message_size);
+AIRMASS_C_API int32_t airmass_vdb_session_grid_values(const airmass_vdb_session* session,
+                                                      const airmass_vdb_block* block, float* values,
+                                                      size_t float_count, const airmass_job* job, char* message,
+                                                      size_t message_size);
+AIRMASS_C_API void airmass_vdb_session_free(airmass_vdb_session* session); /* NULL is fine */
 
 /* The analytic density description (docs/vdb.md, "Analytic density") as JSON. */
 AIRMASS_C_API int32_t airmass_analytic_density_json(const airmass_scene_spec* spec,
