@@ -580,6 +580,25 @@ TEST(Vdb, AutomaticVoxelSizeFollowsScaleHeightsAndTheCamera) {
     EXPECT_NEAR(v_finer, v_planet / 2, v_planet * v_planet / twice_r);  // dense ∝ v⁻³
     p.origin = PlanetOrigin::center;  // the centre at the origin: nothing to round
     EXPECT_NEAR(auto_voxel_size(scene, p), v_finer, v_planet * v_planet / twice_r);
+    // 2R/v even (the centre on the lattice along z: 48 voxels a class, not 16) for a preset whose
+    // size before rounding gives an odd quotient (earth-hazy: 627.x).
+    VdbOptions q;
+    q.region = VdbRegion::planet;
+    const Scene hazy = load_preset("earth-hazy");
+    const double twice_hazy = 2e-3 * hazy.planet.radius_m, v_hazy = auto_voxel_size(hazy, q);
+    EXPECT_NEAR(twice_hazy / v_hazy, 2.0 * std::round(twice_hazy / v_hazy / 2.0), 1e-9) << v_hazy;
+    // The rounding never changes what a constituent's voxels hold: a planet whose size is set by the
+    // aerosol's layer (radius 40 km, top 100 km, scale height 7 km: half a layer, 3.5 km, is the
+    // automatic voxel; 80/3.5 = 22.9) keeps 3.5 km and point values — rounded to 80/22 = 3.64 km
+    // it would have averaged the aerosol (a review's finding).
+    Scene small = load_preset("earth");
+    small.planet.radius_m = 40e3;
+    small.planet.atmosphere_top_m = 100e3;
+    for (auto& c : small.constituents)
+        if (c.name == "mie") c.profile.scale_height_m = 7e3;
+    EXPECT_NEAR(auto_voxel_size(small, q), 3.5, 1e-12);
+    for (const auto& c : resolve_vdb_layout(small, q).constituents)
+        EXPECT_EQ(c.values, VoxelValues::point) << c.name;
 }
 
 TEST(Vdb, ThresholdFollowsTheToleranceOnOpticalDepth) {

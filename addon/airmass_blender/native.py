@@ -777,7 +777,8 @@ class VdbSession:
     layout is resolved once, and the voxel means the plan's pass computes — once per class of
     voxels the planet's symmetry makes equal — serve every block asked afterwards (docs/vdb.md,
     Voxel values, Cost). `vdb`: _vdb_options' keywords. close() (or the garbage collector, or a
-    `with` block) frees it. Thread-safe."""
+    `with` block) frees it. plan() and grid_values() may run at once on several threads; close()
+    only when none is running (ctypes releases the GIL during a call)."""
 
     def __init__(self, spec, **vdb):
         self._lib = lib = library()

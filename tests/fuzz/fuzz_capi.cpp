@@ -462,10 +462,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (status_ok(airmass_vdb_grid_values(&spec, &vdb, &block, values.data(), size_t(n), nullptr, msg,
                                               message_size))) {
             airmass::fuzz::require_finite_non_negative<float>(std::span(values.data(), size_t(n)), "vdb value");
-            // The same block from a session (ABI 8): accepted too, the same values bit for bit.
+            // The same block from a session (ABI 8) after its plan, whose pass filled the session's
+            // store of voxel means: accepted too, the same values bit for bit.
             airmass_vdb_session* session = nullptr;
             require(status_ok(airmass_vdb_session_create(&spec, &vdb, &session, msg, message_size)) && session,
                     "a VDB session refused what the stateless calls accepted");
+            char* session_plan = nullptr;
+            const int32_t sp = airmass_vdb_session_plan(session, nullptr, large ? &cancel_first : nullptr,
+                                                        &session_plan, msg, message_size);
+            if (large && sp == AIRMASS_CANCELLED) {  // a long plan: cancelled as the stateless one could be
+                if (msg) message.assign(message.size(), '\0');
+            } else {
+                require(status_ok(sp), "a VDB session's plan refused where the stateless plan was accepted");
+            }
+            if (session_plan) airmass_string_free(session_plan);
             std::vector<float> again(size_t(n) + 1, -1.0f);
             require(status_ok(airmass_vdb_session_grid_values(session, &block, again.data(), size_t(n), nullptr, msg,
                                                               message_size)),

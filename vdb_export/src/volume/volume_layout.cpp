@@ -360,15 +360,27 @@ double auto_voxel_size_resolved(const Scene& scene, const VdbOptions& options, c
     const double memory_budget = options.max_memory_mb * 1024.0 * 1024.0 / kBytesPerActiveVoxel;
     v = std::max(v, std::cbrt(volume / std::min(dense_budget, memory_budget)));
     if (options.region == VdbRegion::planet) {
-        // A whole shell: a little coarser, so that the planet's centre lies on the lattice or
-        // halfway between two of its nodes on every axis (2c/v whole; with the origin on the
-        // surface, c_z = −R). Then the lattice is symmetric under the centre's 48 reflections
-        // and axis swaps, and the voxels' means are computed once per 48 voxels, not per 8
-        // (voxel_average.hpp, SymmetricAverages). v grows by less than v²/2R (0.03 km for Earth).
+        // A whole shell: a little coarser, so that the planet's centre lies on the lattice on
+        // every axis (2c/v an even number; with the origin on the surface, c_z = −R, the others
+        // 0). Then the lattice is symmetric under the centre's 48 reflections and axis swaps, and
+        // the voxels' means are computed once per 48 voxels, not per 8 (voxel_average.hpp,
+        // SymmetricAverages; an odd 2c/v would put the centre halfway between nodes along z,
+        // which no swap with x or y maps onto the lattice: 16). v grows by the factor k/(k − 2)
+        // at most, k = 2c/v (Earth: 19.92 → 19.94 km) — and not at all where that would change
+        // what a constituent's voxels hold (auto: a voxel coarser than half its thinnest layer).
+        const double thickness_m = scene.planet.atmosphere_top_m - scene.planet.radius_m;
         for (int a = 0; a < 3; ++a) {
             const double twice = 2.0 * std::abs(r.center[a]);
-            if (twice > 0.0 && twice / v < double(1 << 20))
-                if (const double k = std::floor(twice / v); k >= 1.0) v = twice / k;
+            if (!(twice > 0.0 && twice / v < double(1 << 20))) continue;
+            const double k = 2.0 * std::floor(twice / (2.0 * v));
+            if (k < 2.0) continue;
+            const double rounded = twice / k;
+            bool same = true;
+            for (const auto& c : r.constituents) {
+                const double half_layer = 0.5 * profile_feature_m(c.source->profile, thickness_m) / r.L;
+                same = same && (v > half_layer * (1.0 + 1e-9)) == (rounded > half_layer * (1.0 + 1e-9));
+            }
+            if (same) v = rounded;
         }
     }
     return v;

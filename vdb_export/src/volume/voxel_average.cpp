@@ -373,8 +373,15 @@ void SymmetricAverages::get(const std::array<std::int32_t, 3>& ijk, std::uint64_
                 bytes_.fetch_sub(add);
                 if (shard.keys.empty()) return npos;
             } else {
-                std::vector<std::uint64_t> keys(cap, kEmpty);
-                std::vector<double> values(cap * nc, std::numeric_limits<double>::quiet_NaN());
+                std::vector<std::uint64_t> keys;
+                std::vector<double> values;
+                try {
+                    keys.assign(cap, kEmpty);
+                    values.assign(cap * nc, std::numeric_limits<double>::quiet_NaN());
+                } catch (...) {
+                    bytes_.fetch_sub(add);
+                    throw;
+                }
                 for (std::size_t s = 0; s < old_cap; ++s) {
                     if (shard.keys[s] == kEmpty) continue;
                     std::size_t t = mix(shard.keys[s]) & (cap - 1);
@@ -402,7 +409,8 @@ void SymmetricAverages::get(const std::array<std::int32_t, 3>& ijk, std::uint64_
     std::uint64_t missing = 0;
     {
         std::lock_guard<std::mutex> lock(shard.mutex);
-        const std::size_t s = find(true);
+        std::size_t s = find(false);  // a hit neither grows the shard nor counts bytes
+        if (s == npos) s = find(true);
         if (s == npos) {
             missing = which;
         } else {
