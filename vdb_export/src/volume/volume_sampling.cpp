@@ -149,13 +149,16 @@ std::string where_of(const VdbLayout& layout) {
 
 struct VolumeSampler::Region {
     detail::VdbRegionTest test;
+    detail::SymmetricAverages::Lattice lattice;  // the voxels' geometry (fill and the store share it)
     std::vector<Radii> radii;
     std::vector<detail::DensityPieces> pieces;  // VoxelValues::average: each constituent's profile
     // The means that need quadrature, once per class of voxels the planet's symmetry makes
     // equal (voxel_average.hpp); at most kAverageMemoBytes of table, then computed directly.
     std::unique_ptr<detail::SymmetricAverages> averages;
     static constexpr std::size_t kAverageMemoBytes = std::size_t(192) << 20;
-    explicit Region(const VdbLayout& layout) : test(layout) {
+    explicit Region(const VdbLayout& layout)
+        : test(layout),
+          lattice{layout.voxel_size, layout.planet_center, layout.planet_radius, layout.metres_per_unit} {
         const double top_m = (layout.atmosphere_top - layout.planet_radius) * layout.metres_per_unit;
         bool any_average = false;
         for (const auto& c : layout.constituents) {
@@ -165,10 +168,7 @@ struct VolumeSampler::Region {
             any_average = any_average || c.values == VoxelValues::average;
         }
         if (any_average)
-            averages = std::make_unique<detail::SymmetricAverages>(
-                detail::SymmetricAverages::Lattice{layout.voxel_size, layout.planet_center, layout.planet_radius,
-                                                   layout.metres_per_unit},
-                pieces, kAverageMemoBytes);
+            averages = std::make_unique<detail::SymmetricAverages>(lattice, pieces, kAverageMemoBytes);
     }
 };
 
@@ -230,12 +230,10 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
         for (int y = 0; y < kDim; ++y) {
             for (int z = 0; z < kDim; ++z) {
                 const VoxelCoord ijk{block.origin[0] + x, block.origin[1] + y, block.origin[2] + z};
-                const Vec3d p = Vec3d(ijk[0], ijk[1], ijk[2]) * v;
+                const Vec3d p = region_->lattice.point(ijk[0], ijk[1], ijk[2]);
                 if (!region.contains_ignoring_shell(p)) continue;
-                const double r = glm::length(p - L.planet_center);
+                const auto [r, h_m, up] = region_->lattice.at(p);
                 if (r > L.atmosphere_top) continue;  // no atmosphere above the top
-                const double h_m = (r - L.planet_radius) * Lm;
-                const Vec3d up = r > 0.0 ? (p - L.planet_center) / r : Vec3d(0, 0, 1);
                 const int offset = x * kDim * kDim + y * kDim + z;
                 // Each constituent's value; the means without a closed form are asked of the
                 // symmetric store together (one lookup per voxel).

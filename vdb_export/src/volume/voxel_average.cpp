@@ -315,13 +315,10 @@ std::size_t SymmetricAverages::stored() const {
 }
 
 void SymmetricAverages::compute(const std::array<std::int64_t, 3>& ijk, std::uint64_t which, double* out) const {
-    // As the sampler computes a voxel's own geometry (volume_sampling.cpp).
-    const Vec3<double> p = Vec3<double>(double(ijk[0]), double(ijk[1]), double(ijk[2])) * lattice_.voxel;
-    const double r = glm::length(p - lattice_.centre);
-    const double h_m = (r - lattice_.planet_radius) * lattice_.metres_per_unit;
-    const Vec3<double> up = r > 0.0 ? (p - lattice_.centre) / r : Vec3<double>(0, 0, 1);
+    const Lattice::Voxel x = lattice_.at(lattice_.point(ijk[0], ijk[1], ijk[2]));
     for (std::size_t c = 0; c < profiles_.size(); ++c)
-        if (which >> c & 1) out[c] = voxel_average(profiles_[c], h_m, up, lattice_.voxel * lattice_.metres_per_unit);
+        if (which >> c & 1)
+            out[c] = voxel_average(profiles_[c], x.altitude_m, x.up, lattice_.voxel * lattice_.metres_per_unit);
 }
 
 void SymmetricAverages::get(const std::array<std::int32_t, 3>& ijk, std::uint64_t which, double* out) {

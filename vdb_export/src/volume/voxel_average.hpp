@@ -30,6 +30,8 @@
 #include <mutex>
 #include <vector>
 
+#include <glm/geometric.hpp>
+
 #include "airmass/geometry.hpp"
 #include "airmass/scene.hpp"
 
@@ -78,6 +80,21 @@ public:
         Vec3<double> centre{0.0};   // the planet's centre, unit
         double planet_radius = 0;   // unit
         double metres_per_unit = 1;
+
+        // What a voxel's value depends on, computed in this one place: the sampler's own voxels
+        // and the store's canonical members must get the same bits.
+        struct Voxel {
+            double r;           // distance of the centre from the planet's centre, unit
+            double altitude_m;  // of the centre
+            Vec3<double> up;    // outward unit normal ((0, 0, 1) at the planet's centre)
+        };
+        Vec3<double> point(std::int64_t i, std::int64_t j, std::int64_t k) const {
+            return Vec3<double>(double(i), double(j), double(k)) * voxel;
+        }
+        Voxel at(const Vec3<double>& p) const {
+            const double r = glm::length(p - centre);
+            return {r, (r - planet_radius) * metres_per_unit, r > 0.0 ? (p - centre) / r : Vec3<double>(0, 0, 1)};
+        }
     };
     SymmetricAverages(const Lattice& lattice, const std::vector<DensityPieces>& profiles, std::size_t max_bytes);
     ~SymmetricAverages();
