@@ -439,9 +439,11 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
         auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         if (average && lo <= hi) {
             // A voxel's mean reaches as far as its hat (≤ √3 voxels along the vertical): a cell
-            // that far outside the band can hold a mean above the threshold.
+            // that far outside the band can hold a mean above the threshold — above the top too,
+            // where a node's hat still covers air below it: without those nodes the reconstruction
+            // falls to 0 a voxel early and loses up to half a voxel of the density at the top.
             lo = std::max(lo - ground_margin_m, -ground_margin_m);
-            hi = std::min(hi + ground_margin_m, thickness_m);
+            hi = hi + ground_margin_m;
         }
         c.band_min_m = lo;
         c.band_max_m = hi;
@@ -450,7 +452,8 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
         // ground over the margin (trilinear interpolation at the surface reads it); a voxel many
         // scale heights across extrapolates it past the float range, which would store +inf:
         // refuse, naming why. A mean is at most the profile's largest value in the air.
-        const double peak = profile_max(c.source->profile, average ? std::max(lo, 0.0) : lo, hi);
+        const double peak =
+            profile_max(c.source->profile, average ? std::max(lo, 0.0) : lo, average ? std::min(hi, thickness_m) : hi);
         if (!(peak <= double(std::numeric_limits<float>::max())))
             throw VdbError("--voxel-size = " + fmt(v) + " " + unit + (layout.voxel_size_automatic ? " (automatic)" : "") +
                            " is too coarse for constituent '" + c.name + "': its density extrapolated one voxel diagonal (" +
@@ -463,8 +466,11 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
         throw VdbError("every constituent is below the activity threshold everywhere (--tolerance = " +
                        fmt(options.tolerance) + "): nothing to export; lower --tolerance");
 
-    // Index bounds: the shell's box, cut by the box or the camera's reach.
-    Vec3d lo = r.center - Vec3d(r.top), hi = r.center + Vec3d(r.top);
+    // Index bounds: the shell's box (out to the means' nodes above the top), cut by the box or
+    // the camera's reach.
+    double outer = r.top;
+    for (const auto& c : layout.constituents) outer = std::max(outer, r.radius + c.band_max_m / r.L);
+    Vec3d lo = r.center - Vec3d(outer), hi = r.center + Vec3d(outer);
     if (options.region == VdbRegion::box) {
         const auto& b = options.box;
         const Vec3d blo = Vec3d(b[0], b[1], b[2]) - Vec3d(v), bhi = Vec3d(b[3], b[4], b[5]) + Vec3d(v);

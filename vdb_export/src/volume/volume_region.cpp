@@ -47,7 +47,8 @@ VdbRegionTest::VdbRegionTest(const VdbLayout& layout) : center_(layout.planet_ce
         band_max = std::max(band_max, c.band_max_m);
     }
     shell_min_ = layout.planet_radius + band_min / layout.metres_per_unit;
-    shell_max_ = std::min(layout.atmosphere_top, layout.planet_radius + band_max / layout.metres_per_unit);
+    // (Point values' bands end at the top; the means' reach past it by a hat: volume_layout.cpp.)
+    shell_max_ = layout.planet_radius + band_max / layout.metres_per_unit;
 
     if (layout.view) {
         const VdbViewCone& cam = *layout.view;

@@ -7,7 +7,9 @@
 //   * planes (frustum sides): margin voxel · ‖n‖₁ along the plane normal n;
 //   * spheres (ground, max distance, the occluding planet): margin √3 · voxel;
 //   * the box: one voxel along each axis;
-//   * the top of the atmosphere: no margin — the model's density is zero above it.
+//   * the top of the atmosphere: no margin for point values — the model's density is zero
+//     above it; the means reach past it by their hats (a node there holds its share of the air
+//     below the top), through the constituents' altitude bands (volume_layout.cpp).
 #pragma once
 
 #include <array>

@@ -163,7 +163,7 @@ struct VolumeSampler::Region {
         bool any_average = false;
         for (const auto& c : layout.constituents) {
             radii.push_back({layout.planet_radius + c.band_min_m / layout.metres_per_unit,
-                             std::min(layout.atmosphere_top, layout.planet_radius + c.band_max_m / layout.metres_per_unit)});
+                             layout.planet_radius + c.band_max_m / layout.metres_per_unit});
             pieces.push_back(detail::DensityPieces::of(c.source->profile, top_m));
             any_average = any_average || c.values == VoxelValues::average;
         }
@@ -233,7 +233,9 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                 const Vec3d p = region_->lattice.point(ijk[0], ijk[1], ijk[2]);
                 if (!region.contains_ignoring_shell(p)) continue;
                 const auto [r, h_m, up] = region_->lattice.at(p);
-                if (r > L.atmosphere_top) continue;  // no atmosphere above the top
+                // No atmosphere above the top: no point value there; a mean there is its hat's
+                // share of the air below the top (the bands say how far).
+                const bool above_top = r > L.atmosphere_top;
                 const int offset = x * kDim * kDim + y * kDim + z;
                 // Each constituent's value; the means without a closed form are asked of the
                 // symmetric store together (one lookup per voxel).
@@ -243,6 +245,7 @@ std::uint64_t VolumeSampler::fill(const VolumeBlock& block, std::span<VolumeBloc
                     if (!(mask >> c & 1)) continue;
                     const VdbConstituent& con = L.constituents[c];
                     if (h_m < con.band_min_m || h_m > con.band_max_m) continue;
+                    if (above_top && con.values != VoxelValues::average) continue;
                     in_band |= std::uint64_t(1) << c;
                     if (con.values != VoxelValues::average)
                         rho[c] = con.source->profile.at(h_m);
