@@ -241,13 +241,15 @@ void grid_values_into(const airmass::VolumeSampler& sampler, const airmass_vdb_b
 }  // namespace airmass::capi
 
 // A VDB session: the scene, the layout resolved from it (its constituents point into the scene)
-// and the sampler (which refers to the layout): built in place, never moved.
+// and the sampler (which refers to the layout): built in place, never moved. The sampler keeps
+// the plan's pass's blocks (up to kKeepBytes of values) for the grids' values asked after it.
 struct airmass_vdb_session {
+    static constexpr std::size_t kKeepBytes = std::size_t(256) << 20;
     airmass::Scene scene;
     airmass::VdbLayout layout;
     airmass::VolumeSampler sampler;
     airmass_vdb_session(airmass::Scene s, const airmass::VdbOptions& options)
-        : scene(std::move(s)), layout(airmass::resolve_vdb_layout(scene, options)), sampler(layout) {}
+        : scene(std::move(s)), layout(airmass::resolve_vdb_layout(scene, options)), sampler(layout, kKeepBytes) {}
     airmass_vdb_session(const airmass_vdb_session&) = delete;
     airmass_vdb_session& operator=(const airmass_vdb_session&) = delete;
 };

@@ -274,6 +274,12 @@ struct VolumeBlockValues {
 class VolumeSampler {
 public:
     explicit VolumeSampler(const VdbLayout& layout);
+    // With keep_bytes > 0 the sampling pass (sample_volume; plan_volume(sampler)) keeps each
+    // block's values, up to that many bytes of them, and sample_volume_box copies a kept block
+    // instead of sampling it again: a host that asks the plan and then every grid's boxes (a
+    // VDB session of the C ABI) computes each voxel once. The copies are the values sampling
+    // gives, bit for bit; blocks past the limit are sampled again, as without it.
+    VolumeSampler(const VdbLayout& layout, std::size_t keep_bytes);
     ~VolumeSampler();
     VolumeSampler(const VolumeSampler&) = delete;
     VolumeSampler& operator=(const VolumeSampler&) = delete;
@@ -295,10 +301,21 @@ public:
     // reset. Returns the mask of the constituents that have at least one active voxel.
     std::uint64_t fill(const VolumeBlock& block, std::span<VolumeBlockValues> out) const;
 
+    // The kept blocks (keep_bytes above). keep: the sampling pass hands each block's values
+    // (`on`: fill's result); stored while the bytes allow. kept: whether the block at `origin`
+    // was kept, and then `values` → constituent c's kVolumeBlockVoxels values (0 where
+    // inactive), nullptr when c has no active voxel there. Both thread-safe.
+    void keep(const VolumeBlock& block, std::uint64_t on, std::span<const VolumeBlockValues> values) const;
+    bool kept(const VoxelCoord& origin, std::size_t c, const float*& values) const;
+    // Bytes of block values kept so far (0 without keep_bytes).
+    std::size_t kept_bytes() const;
+
 private:
     struct Region;
+    struct Kept;
     const VdbLayout& layout_;
     std::unique_ptr<Region> region_;
+    std::unique_ptr<Kept> kept_;  // null without keep_bytes
 };
 
 // A block's summary for one constituent with at least one active voxel.

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <mutex>
 #include <string>
+#include <unordered_map>
 
 #include "airmass/parallel.hpp"
 #include "airmass/progress.hpp"
@@ -179,7 +181,72 @@ VolumeSampler::VolumeSampler(const VdbLayout& layout) : layout_(layout) {
     region_ = std::make_unique<Region>(layout);
 }
 
+// The kept blocks: a map from origin to the values of the constituents active there, filled by
+// the sampling pass's workers, read by box requests, a lock per block either way (a plain mutex:
+// std::shared_mutex would take pthread_rwlock_* at GLIBC_2.34, past the add-on's 2.28 baseline).
+// A block's entry never changes once inserted, and map nodes do not move: `kept` hands out
+// pointers into it.
+struct VolumeSampler::Kept {
+    struct Hash {
+        std::size_t operator()(const VoxelCoord& o) const {
+            std::uint64_t h = 0;
+            for (int a = 0; a < 3; ++a) h = (h ^ std::uint32_t(o[std::size_t(a)])) * 0x9E3779B97F4A7C15ull;
+            return std::size_t(h ^ (h >> 29));
+        }
+    };
+    struct Block {
+        std::uint64_t on = 0;       // constituents with active voxels
+        std::vector<float> values;  // kVolumeBlockVoxels per constituent of `on`, in order
+    };
+    explicit Kept(std::size_t max) : max_bytes(max) {}
+    const std::size_t max_bytes;
+    mutable std::mutex mutex;
+    std::size_t bytes = 0;  // under mutex
+    std::unordered_map<VoxelCoord, Block, Hash> blocks;
+};
+
+VolumeSampler::VolumeSampler(const VdbLayout& layout, std::size_t keep_bytes) : VolumeSampler(layout) {
+    if (keep_bytes > 0) kept_ = std::make_unique<Kept>(keep_bytes);
+}
+
 VolumeSampler::~VolumeSampler() = default;
+
+void VolumeSampler::keep(const VolumeBlock& block, std::uint64_t on, std::span<const VolumeBlockValues> values) const {
+    if (!kept_) return;
+    const std::size_t n = std::size_t(std::popcount(on));
+    // the entry, its map node and the values
+    const std::size_t cost = sizeof(Kept::Block) + sizeof(VoxelCoord) + 32 + n * kVolumeBlockVoxels * sizeof(float);
+    {
+        std::lock_guard<std::mutex> lock(kept_->mutex);
+        if (kept_->bytes + cost > kept_->max_bytes || kept_->blocks.count(block.origin)) return;
+    }
+    Kept::Block b;
+    b.on = on;
+    b.values.reserve(n * kVolumeBlockVoxels);
+    for (std::size_t c = 0; c < values.size() && c < 64; ++c)
+        if (on >> c & 1) b.values.insert(b.values.end(), values[c].value.begin(), values[c].value.end());
+    std::lock_guard<std::mutex> lock(kept_->mutex);
+    if (kept_->bytes + cost > kept_->max_bytes) return;
+    if (kept_->blocks.emplace(block.origin, std::move(b)).second) kept_->bytes += cost;
+}
+
+bool VolumeSampler::kept(const VoxelCoord& origin, std::size_t c, const float*& values) const {
+    values = nullptr;
+    if (!kept_) return false;
+    std::lock_guard<std::mutex> lock(kept_->mutex);
+    const auto it = kept_->blocks.find(origin);
+    if (it == kept_->blocks.end()) return false;
+    const Kept::Block& b = it->second;
+    if (c < 64 && (b.on >> c & 1))
+        values = b.values.data() + std::size_t(std::popcount(b.on & ((std::uint64_t(1) << c) - 1))) * kVolumeBlockVoxels;
+    return true;
+}
+
+std::size_t VolumeSampler::kept_bytes() const {
+    if (!kept_) return 0;
+    std::lock_guard<std::mutex> lock(kept_->mutex);
+    return kept_->bytes;
+}
 
 int volume_workers(int threads) { return threads > 0 ? threads : hardware_threads(); }
 
@@ -311,6 +378,7 @@ std::vector<VolumeLeaf> sample_volume(const VolumeSampler& sampler, const Volume
         if (values.size() != nc) values.resize(nc);
         const VolumeBlock& block = blocks[i];
         const std::uint64_t on = sampler.fill(block, values);
+        sampler.keep(block, on, values);
         for (std::size_t c = 0; c < nc; ++c) {
             if (!(on >> c & 1)) continue;
             const VolumeBlockValues& v = values[c];
@@ -363,8 +431,13 @@ void sample_volume_box(const VolumeSampler& sampler, std::size_t constituent, co
         auto& values = scratch[std::size_t(w)];
         if (values.size() != nc) values.resize(nc);
         const VolumeBlock& block = blocks[i];
-        if (!(sampler.fill(block, values) & bit)) return;
-        const VolumeBlockValues& v = values[constituent];
+        // A block the sampling pass kept is copied, else sampled (the same values either way).
+        const float* src;
+        if (!sampler.kept(block.origin, constituent, src)) {
+            if (!(sampler.fill(block, values) & bit)) return;
+            src = values[constituent].value.data();
+        }
+        if (!src) return;  // kept: no active voxel of this constituent
         // The part of the block inside the box; blocks are disjoint, so are their writes.
         int lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
@@ -376,7 +449,7 @@ void sample_volume_box(const VolumeSampler& sampler, std::size_t constituent, co
                 const std::int64_t i0 = std::int64_t(block.origin[0]) + x - box.min[0];
                 const std::int64_t j0 = std::int64_t(block.origin[1]) + y - box.min[1];
                 const std::int64_t row = (i0 * ny + j0) * nz + (std::int64_t(block.origin[2]) - box.min[2]);
-                for (int z = lo[2]; z <= hi[2]; ++z) out[std::size_t(row + z)] = v.value[std::size_t(x * 64 + y * 8 + z)];
+                for (int z = lo[2]; z <= hi[2]; ++z) out[std::size_t(row + z)] = src[std::size_t(x * 64 + y * 8 + z)];
             }
     });
 }

@@ -242,11 +242,18 @@ Hat hat_of(const Vec3<double>& n, double voxel_m) {
     return hat;
 }
 
+// The whole hat where the profile is 0: below the ground, above the top, or outside the pieces
+// (the ozone tent's air above 40 km; the nodes above the top that a footprint's reach enumerates).
+bool hat_outside(const DensityPieces& prof, double h, double reach) {
+    if (!(h + reach > 0.0) || !(h - reach < prof.top_m) || prof.pieces.empty()) return true;
+    return !(h + reach > prof.pieces.front().lo) || !(h - reach < prof.pieces.back().hi);
+}
+
 }  // namespace
 
 double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m) {
     const Hat hat = hat_of(n, voxel_m);
-    if (!(h + hat.reach > 0.0)) return 0.0;  // the whole hat below the ground
+    if (hat_outside(prof, h, hat.reach)) return 0.0;
     double v = 0.0;
     return closed_form(prof, h, hat.reach, hat.w, v) ? v : general(prof, h, hat.w, hat.reach);
 }
@@ -254,7 +261,7 @@ double voxel_average(const DensityPieces& prof, double h, const Vec3<double>& n,
 bool voxel_average_closed_form(const DensityPieces& prof, double h, const Vec3<double>& n, double voxel_m,
                                double& value) {
     const Hat hat = hat_of(n, voxel_m);
-    if (!(h + hat.reach > 0.0)) {
+    if (hat_outside(prof, h, hat.reach)) {
         value = 0.0;
         return true;
     }
@@ -281,7 +288,7 @@ std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
 
 }  // namespace
 
-struct SymmetricAverages::Shard {
+struct alignas(64) SymmetricAverages::Shard {  // a cache line of its own: no false sharing of the locks
     std::mutex mutex;
     std::vector<std::uint64_t> keys;  // kEmpty or a key; linear probing
     std::vector<double> values;       // per slot, one per profile; NaN: not computed yet
