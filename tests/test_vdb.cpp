@@ -606,12 +606,18 @@ TEST(Vdb, ThresholdFollowsTheToleranceOnOpticalDepth) {
     const Scene scene = load_preset("earth");
     VdbOptions o = small_box();
     const VdbLayout L = resolve_vdb_layout(scene, o);
-    const double chord = 2 * std::sqrt(6420.0 * 6420.0 - 6360.0 * 6360.0);
+    // Means reach (1 + √3) voxels past the top (the nodes above it and their interpolant): the
+    // chord of that sphere, not the top's.
     for (const auto& c : L.constituents) {
+        const double top = 6420.0 + (c.values == VoxelValues::average ? (1.0 + std::sqrt(3.0)) * L.voxel_size : 0.0);
+        const double chord = 2 * std::sqrt(top * top - 6360.0 * 6360.0);
         const double ext = std::max({c.scattering_rgb[0] + c.absorption_rgb[0], c.scattering_rgb[1] + c.absorption_rgb[1],
                                      c.scattering_rgb[2] + c.absorption_rgb[2]});
         EXPECT_NEAR(c.density_threshold * ext * chord, 1e-4, 1e-16) << c.name;
     }
+    bool any_average = false;
+    for (const auto& c : L.constituents) any_average |= c.values == VoxelValues::average;
+    EXPECT_TRUE(any_average) << "the box should average a constituent (the means' chord untested)";
     o.tolerance = 0;
     for (const auto& c : resolve_vdb_layout(scene, o).constituents) EXPECT_EQ(c.density_threshold, 0.0);
 }
@@ -1169,6 +1175,23 @@ TEST(Vdb, KeptBlocksServeTheBoxesWithTheSampledValues) {
     const float* values = nullptr;
     EXPECT_FALSE(fresh.kept(layout.index_bounds.min, 0, values));
     EXPECT_EQ(fresh.kept_bytes(), 0u);
+    // The box request serves what was kept, not a fresh sample: a block handed to keep() with
+    // stand-in values comes back with them; a block kept without the constituent comes back 0.
+    const VolumeSampler injected(layout, std::size_t(1) << 20);
+    const std::vector<VolumeBlock> blocks = injected.blocks();
+    ASSERT_GE(blocks.size(), 2u);
+    std::vector<VolumeBlockValues> stand_in(layout.constituents.size());
+    stand_in[0].value.fill(42.0f);
+    injected.keep(blocks[0], 1, stand_in);
+    injected.keep(blocks[1], 0, stand_in);
+    for (int k = 0; k < 2; ++k) {
+        const VoxelBox box{blocks[std::size_t(k)].origin,
+                           {blocks[std::size_t(k)].origin[0] + 7, blocks[std::size_t(k)].origin[1] + 7,
+                            blocks[std::size_t(k)].origin[2] + 7}};
+        std::vector<float> got(box.volume());
+        sample_volume_box(injected, 0, box, got);
+        for (const float f : got) ASSERT_EQ(f, k == 0 ? 42.0f : 0.0f) << k;
+    }
 }
 
 // ---- the voxel-size trade --------------------------------------------------------------------

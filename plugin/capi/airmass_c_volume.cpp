@@ -3,6 +3,7 @@
 // OpenVDB grids and files itself. Nothing here links OpenVDB or writes a file.
 #include "capi_internal.hpp"
 
+#include <algorithm>
 #include <type_traits>
 #include <variant>
 
@@ -242,14 +243,17 @@ void grid_values_into(const airmass::VolumeSampler& sampler, const airmass_vdb_b
 
 // A VDB session: the scene, the layout resolved from it (its constituents point into the scene)
 // and the sampler (which refers to the layout): built in place, never moved. The sampler keeps
-// the plan's pass's blocks (up to kKeepBytes of values) for the grids' values asked after it.
+// the plan's pass's blocks (up to kKeepBytes of values, and not more than the grids' own
+// --max-memory-mb) for the grids' values asked after it.
 struct airmass_vdb_session {
     static constexpr std::size_t kKeepBytes = std::size_t(256) << 20;
     airmass::Scene scene;
     airmass::VdbLayout layout;
     airmass::VolumeSampler sampler;
     airmass_vdb_session(airmass::Scene s, const airmass::VdbOptions& options)
-        : scene(std::move(s)), layout(airmass::resolve_vdb_layout(scene, options)), sampler(layout, kKeepBytes) {}
+        : scene(std::move(s)),
+          layout(airmass::resolve_vdb_layout(scene, options)),
+          sampler(layout, std::size_t(std::clamp(options.max_memory_mb * 1048576.0, 0.0, double(kKeepBytes)))) {}
     airmass_vdb_session(const airmass_vdb_session&) = delete;
     airmass_vdb_session& operator=(const airmass_vdb_session&) = delete;
 };

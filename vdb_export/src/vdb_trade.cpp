@@ -181,15 +181,35 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
         }
     }
 
+    // The slab at voxel size v, tolerance tol: for means the box also holds the nodes above the
+    // top whose footprints reach the rays' air, (1 + √3) voxels more on the slab's plane (x, z).
+    auto slab_at = [&](double v, double tol, VoxelValues values) {
+        VdbOptions o = slab;
+        o.voxel_size = v;
+        o.tolerance = tol;
+        o.voxel_values = values;
+        if (values != VoxelValues::point) {
+            const double m = (1.0 + std::sqrt(3.0)) * v;
+            o.box = {slab.box[0] - m, slab.box[1], slab.box[2] - m, slab.box[3] + m, slab.box[4], slab.box[5] + m};
+        }
+        return o;
+    };
+
     // RGB optical depth along every ray through a built slab of voxel size v.
     auto slab_tau = [&](const VdbVolume& vol, double v) {
         const VdbLayout& L = vol.layout;
         std::vector<std::array<double, 3>> tau(rays.size(), {0, 0, 0});
         for (std::size_t i = 0; i < rays.size(); ++i) {
             auto [a, b] = in_atmosphere(rays[i], L);
-            // The interpolant reaches one voxel past the last active voxel.
+            // The interpolant reaches one voxel past the last active voxel, and the means' nodes
+            // lie up to √3 voxels above the top: the ray inside the sphere of radius
+            // top + (2 + √3) voxels (point values' grids are 0 in the extra part).
             const Vec3d o = vec(rays[i].origin_km), d = vec(rays[i].direction);
-            const double a_ext = a > 0 ? std::max(0.0, a - 2 * v) : 0.0, b_ext = b + 2 * v;
+            double a_ext = a > 0 ? std::max(0.0, a - 2 * v) : 0.0, b_ext = b + 2 * v, t0, t1;
+            if (sphere_roots(o, d, to_openvdb(L.planet_center), L.atmosphere_top + (2.0 + std::sqrt(3.0)) * v, t0, t1)) {
+                if (a > 0) a_ext = std::min(a_ext, std::max(0.0, t0));
+                b_ext = std::max(b_ext, t1);
+            }
             for (std::size_t c = 0; c < L.constituents.size(); ++c) {
                 const auto& g = vol.tiles[0].grids[c];
                 if (!g) continue;
@@ -229,11 +249,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
             }
             out.push_back(c);
         };
-        VdbOptions box = slab;
-        box.voxel_size = v;
-        box.tolerance = tol;
-        box.voxel_values = values;
-        cost_of("slab", box, scene);
+        cost_of("slab", slab_at(v, tol, values), scene);
         if (options.measure_view_region) {
             Scene s = scene;
             s.camera = Camera{};
@@ -265,9 +281,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
     for (const double v : options.voxel_sizes) {
         for (const VoxelValues values : options.voxel_values) {
             if (options.cancel && options.cancel->requested()) throw Cancelled("report vdb cancelled");
-            slab.voxel_size = v;
-            slab.voxel_values = values;
-            const VdbVolume vol = build_vdb_volume(scene, slab, run);
+            const VdbVolume vol = build_vdb_volume(scene, slab_at(v, options.tolerance, values), run);
             const auto tau = slab_tau(vol, v);
             if (!tolerances.empty() && v == options.tolerance_voxel_size && values == default_values && !shared_tau) {
                 shared_tau = tau;
@@ -290,7 +304,6 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
             step_done();
         }
     }
-    slab.voxel_values = default_values;
 
     // The threshold's trade: the same slab on one lattice for each tolerance, 0 first.
     if (!tolerances.empty()) {
@@ -305,10 +318,7 @@ VdbTradeResult run_vdb_trade(const Scene& scene, const VdbTradeOptions& options)
                 tau = *shared_tau;
                 grids = shared_grids;
             } else {
-                VdbOptions o = slab;
-                o.voxel_size = v;
-                o.tolerance = tol;
-                const VdbVolume vol = build_vdb_volume(scene, o, run);
+                const VdbVolume vol = build_vdb_volume(scene, slab_at(v, tol, default_values), run);
                 tau = slab_tau(vol, v);
                 grids = grid_count(vol);
             }

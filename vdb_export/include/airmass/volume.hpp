@@ -193,9 +193,9 @@ struct VdbLayout {
 // resolves units, voxel size, constituents and region.
 VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options);
 
-// Relative density of `c` at the world point `p` (unit) as the grids store it, i.e.
-// the profile at the point's altitude (0 above the atmosphere top), independent of
-// the region and the activity threshold.
+// Relative density of `c` at the world point `p` (unit) as grids of point values store it,
+// i.e. the profile at the point's altitude (0 above the atmosphere top), independent of
+// the region and the activity threshold (means: detail::voxel_average, voxel_average.hpp).
 double vdb_density_at(const VdbLayout& layout, const VdbConstituent& c, const Vec3<double>& p);
 
 // ---- statistics --------------------------------------------------------------------------
@@ -302,7 +302,8 @@ public:
     std::uint64_t fill(const VolumeBlock& block, std::span<VolumeBlockValues> out) const;
 
     // The kept blocks (keep_bytes above). keep: the sampling pass hands each block's values
-    // (`on`: fill's result); stored while the bytes allow. kept: whether the block at `origin`
+    // (`on`: fill's result); stored while the bytes allow, and served as given — only the
+    // sampling pass should call it (tests inject values to see them served). kept: whether the block at `origin`
     // was kept, and then `values` → constituent c's kVolumeBlockVoxels values (0 where
     // inactive), nullptr when c has no active voxel there. Both thread-safe.
     void keep(const VolumeBlock& block, std::uint64_t on, std::span<const VolumeBlockValues> values) const;
@@ -399,7 +400,8 @@ VolumePlan make_volume_plan(const VdbLayout& layout, const std::vector<VolumeLea
 // sample_volume + make_volume_plan (the sampling's values are not kept).
 VolumePlan plan_volume(const VdbLayout& layout, const VolumeRunOptions& run = {});
 // The same with the caller's sampler (its layout), whose store of voxel means the pass fills
-// for the blocks asked of it afterwards (sample_volume_box with the same sampler).
+// — and which keeps the pass's blocks when made with keep_bytes — for the blocks asked of it
+// afterwards (sample_volume_box with the same sampler).
 VolumePlan plan_volume(const VolumeSampler& sampler, const VolumeRunOptions& run = {});
 
 // ---- dense blocks ------------------------------------------------------------------------

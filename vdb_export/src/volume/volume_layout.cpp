@@ -436,6 +436,14 @@ VdbLayout resolve_vdb_layout(const Scene& scene, const VdbOptions& options) {
                    : coarse && crossed                         ? VoxelValues::average
                                                                : VoxelValues::point;
         const bool average = c.values == VoxelValues::average;
+        if (average && c.density_threshold > 0.0) {
+            // The means' nodes reach √3 voxels past the top and their interpolant one voxel more:
+            // a ray that misses the ground crosses inactive cells over the longest chord of that
+            // sphere, not of the top's — the threshold that keeps the tolerance is smaller by the
+            // ratio of the two chords (Earth at 19.94-km voxels: 1750 → 2426 km).
+            const double reach = r.top + (1.0 + std::sqrt(3.0)) * v;
+            c.density_threshold *= longest_chord(r.radius, r.top) / longest_chord(r.radius, reach);
+        }
         auto [lo, hi] = active_band(c.source->profile, c.density_threshold, ground_margin_m, thickness_m);
         if (average && lo <= hi) {
             // A voxel's mean reaches as far as its hat (≤ √3 voxels along the vertical): a cell

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <bit>
 #include <mutex>
+#include <new>
 #include <string>
 #include <unordered_map>
 
@@ -220,14 +221,20 @@ void VolumeSampler::keep(const VolumeBlock& block, std::uint64_t on, std::span<c
         std::lock_guard<std::mutex> lock(kept_->mutex);
         if (kept_->bytes + cost > kept_->max_bytes || kept_->blocks.count(block.origin)) return;
     }
-    Kept::Block b;
-    b.on = on;
-    b.values.reserve(n * kVolumeBlockVoxels);
-    for (std::size_t c = 0; c < values.size() && c < 64; ++c)
-        if (on >> c & 1) b.values.insert(b.values.end(), values[c].value.begin(), values[c].value.end());
+    // Keeping is an optimisation: out of memory it stops (the limit is taken as reached), and the
+    // pass goes on; the blocks not kept are sampled again when asked.
     std::lock_guard<std::mutex> lock(kept_->mutex);
     if (kept_->bytes + cost > kept_->max_bytes) return;
-    if (kept_->blocks.emplace(block.origin, std::move(b)).second) kept_->bytes += cost;
+    try {
+        Kept::Block b;
+        b.on = on;
+        b.values.reserve(n * kVolumeBlockVoxels);
+        for (std::size_t c = 0; c < values.size() && c < 64; ++c)
+            if (on >> c & 1) b.values.insert(b.values.end(), values[c].value.begin(), values[c].value.end());
+        if (kept_->blocks.emplace(block.origin, std::move(b)).second) kept_->bytes += cost;
+    } catch (const std::bad_alloc&) {
+        kept_->bytes = kept_->max_bytes;
+    }
 }
 
 bool VolumeSampler::kept(const VoxelCoord& origin, std::size_t c, const float*& values) const {
