@@ -8,13 +8,19 @@
 #include <OpenEXR/ImfCompression.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <exception>
+#include <memory>
 #include <thread>
+#include <utility>
 
 #include <cctype>
 #include <stdexcept>
@@ -22,6 +28,49 @@
 namespace airmass {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// The EXR's file stream, through a 1-MiB buffer. OpenEXR's own (a std::ofstream) hands each
+// scanline to the kernel as it comes — libstdc++ writes any piece over 1 KiB straight through —
+// 256 system calls for a 512 × 256 sky; here a sky up to 1 MiB is one.
+class BufferedOStream final : public Imf::OStream {
+public:
+    explicit BufferedOStream(const fs::path& path)
+        : Imf::OStream(path.c_str()), file_(std::fopen(path.c_str(), "wb")), buffer_(new char[kBuffer]) {
+        if (!file_) fail("cannot open");
+        std::setvbuf(file_, buffer_.get(), _IOFBF, kBuffer);  // without it: the stdio buffer
+    }
+    ~BufferedOStream() override {
+        if (file_) std::fclose(file_);
+    }
+    void write(const char c[], int n) override {
+        if (n > 0 && std::fwrite(c, 1, std::size_t(n), file_) != std::size_t(n)) fail("write failed");
+    }
+    uint64_t tellp() override {
+        const auto pos = ftello(file_);
+        if (pos < 0) fail("tell failed");
+        return uint64_t(pos);
+    }
+    void seekp(uint64_t pos) override {
+        if (fseeko(file_, off_t(pos), SEEK_SET) != 0) fail("seek failed");
+    }
+    // Flushes and closes: the errors a destructor would swallow.
+    void close() {
+        std::FILE* f = std::exchange(file_, nullptr);
+        if (std::fclose(f) != 0) fail("close failed");
+    }
+
+private:
+    static constexpr std::size_t kBuffer = std::size_t(1) << 20;
+    [[noreturn]] void fail(const char* what) const {
+        throw std::runtime_error(std::string(what) + " (" + std::strerror(errno) + ")");
+    }
+    std::FILE* file_;
+    std::unique_ptr<char[]> buffer_;
+};
+
+}  // namespace
 
 void check_exr_destination(const fs::path& path) {
     if (path.empty()) throw ImageWriteError("output path is empty");
@@ -81,9 +130,13 @@ void write_exr_atomic(const fs::path& path, const FloatImage& image, const Image
             {
                 // Compressed by as many threads as the machine has (ZIP of a 2048 × 1024 float
                 // image takes ≈ 0.8 s on one core).
-                Imf::OutputFile file(tmp.c_str(), header, int(std::max(1u, std::thread::hardware_concurrency())));
-                file.setFrameBuffer(frame);
-                file.writePixels(image.height);
+                BufferedOStream stream(tmp);
+                {
+                    Imf::OutputFile file(stream, header, int(std::max(1u, std::thread::hardware_concurrency())));
+                    file.setFrameBuffer(frame);
+                    file.writePixels(image.height);
+                }
+                stream.close();
             }
             // OutputFile writes its line-offset table in its destructor, which swallows errors
             // (a full disk there would leave a file without it): read the table back.
