@@ -73,6 +73,7 @@ struct AtmosphereConstituent {
 struct Atmosphere {
     double planet_radius_m = 6360e3;
     double top_altitude_m = 60e3;  // atmosphere_top_m − radius_m
+    std::vector<double> knots_m;   // profile_knots_m(scene): where the sky grids split (sky_grid.hpp)
     double ground_albedo = 0.1;
     double sun_angular_radius_rad = 0.0;
     std::vector<double> wavelengths_nm;
@@ -99,6 +100,11 @@ inline constexpr std::size_t kMaxConstituents = 16;
 // for bad wavelengths or settings, naming the field, value and allowed range.
 Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavelengths_nm,
                               const EvalSettings& settings = {});
+
+// The altitudes (metres) of the knots of every piecewise-linear profile of the scene — tents,
+// tables, constant layers, used or not — where a density or its slope jumps (sky_grid.hpp
+// Horizon::kinks; Atmosphere::knots_m holds the same). SceneError for a bad profile.
+std::vector<double> profile_knots_m(const Scene& scene);
 
 // settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it)
 // with its quadrature rule (view_rule).

@@ -1,11 +1,14 @@
 // A sun-aligned grid of view directions for one observer: the mapping behind the sky image's
 // grid (SkySettings::grid) and the multiple-scattering view (evaluator.hpp MsView).
 //
-// Rows: two pieces of zenith angle meeting at the horizon — the sky above it, the ground
-// below — node 0 of each next to the horizon; the fraction f ∈ [0, 1] of a piece's span away
-// from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1): the row spacing next to
-// the horizon is c/(1 + c) of an even one's (SkyGridLayout::row_concentration c: 0.2 of it
-// for c = 0.25, 0.038 for c = 0.04). Nothing is interpolated across the horizon.
+// Rows: pieces of zenith angle, none interpolated across another — the sky above the horizon
+// and the ground below it, node 0 of each next to the horizon; the fraction f ∈ [0, 1] of a
+// piece's span away from the horizon is f = x (x + c)/(1 + c) at node x = i/(n − 1): the row
+// spacing next to the horizon is c/(1 + c) of an even one's (SkyGridLayout::row_concentration
+// c: 0.2 of it for c = 0.25, 0.038 for c = 0.04). Seen from above a layer — an observer above
+// a profile's knot or above the atmosphere — the sky is split further at the zenith angles of
+// the rays tangent to the knots' spheres (Horizon::kinks), and each piece whose far end is
+// such a kink or the limb of the top is crowded at both ends (half the piece each way).
 // Columns: azimuth from the sun ψ ∈ [0, π] in `intervals` steps (the sky of a spherically
 // symmetric atmosphere is mirror-symmetric about the vertical plane through the sun), equal
 // or, with a column concentration c' > 0, ψ/π = x (|x| + c')/(1 + c') at x = j/G: the
@@ -14,12 +17,19 @@
 // values (RGB parts for the image, one per wavelength for the multiple-scattering view).
 //
 // The two layouts (SkyGridLayout): the multiple-scattering view's (M intervals, M/2 + 1 rows
-// per piece, c = 0.25 above the horizon and 0.01 below it, equal columns), and the sky image's
+// per piece, c = 0.04 above the horizon and 0.01 below it, equal columns), and the sky image's
 // (G intervals, G + 1 rows per piece, c = 0.04, c' = 1). The view's ground rows crowd at the
 // horizon because, seen from above the ground at twilight, the radiance of the ground rays
 // changes fastest just below the Earth's limb (earth, 10 km, sun −4°, 256 × 128 against every
 // ray: max 34 % with c = 0.25 there, 6.1 % with 0.04, 1.3 % with 0.01; the sky rows and the
-// other conditions of docs/sky.md's view table no worse). The image holds its single scattering over each column's phase function
+// other conditions of docs/sky.md's view table no worse). Its sky rows crowd there too: the
+// worst pixel of every image was in the first row above the horizon (blender-nishita 512 × 256,
+// sun 60° / 15° / 2° / −4°: max 0.72 / 1.04 / 2.35 / 3.10 % with c = 0.25, 0.14 / 0.31 / 0.71 /
+// 1.21 % with 0.04, p95 lower too; docs/sky.md "Sky rows for every observer"). Columns crowded
+// toward the sun (c' = 0.5 or 1) move the worst pixel to the side opposite it, no better.
+// The kinks: `earth` 1024 × 512 from 50 km, sun 10°, against every pixel, the image grid's
+// worst pixel was 51 % off (the ozone tent's top, 40 km, seen edge-on), 3.5 % split there;
+// from 400 km 19 % at the limb, 6.9 % (docs/sky.md). The image holds its single scattering over each column's phase function
 // (sky.cpp), so what it interpolates has no aureole; what is left sharp is the zenith angle
 // next to the horizon — hence its rows: twice as many, their spacing there 0.038 of an even
 // one's (docs/sky.md measures both).
@@ -46,15 +56,35 @@ namespace airmass {
 // Zenith angles that split the sphere for an observer at altitude h: rays with
 // θ < theta_space miss the atmosphere (0 inside it), rays with θ > theta_horizon hit the
 // ground. Written without subtracting radii: acos(R/r0) = atan2(sqrt(h(2R + h)), R).
+//
+// kinks: the zenith angles of the descending rays tangent to the spheres of the profiles'
+// knots (profile_knots_m) below the observer, θ = π − asin((R + a)/(R + h)) for 0 < a < h and
+// a < top. Along such rays the light is not smooth in θ: the path below a knot's sphere grows
+// as the square root of the ray's dip below it (the optical depth has a kink: a √ for a jump
+// of the density, as at the top; a power 3/2 for a jump of its slope, as at the ozone tent's
+// knots), so a sky seen from above a layer has its sharpest gradients there (SkyGrid splits
+// its rows at them). Ascending, each at least 1e-6 rad from the next and from the sky's ends;
+// none for an observer below every knot.
 struct Horizon {
     double theta_space = 0.0;
     double theta_horizon = std::numbers::pi / 2;
+    std::vector<double> kinks;
 
-    static Horizon of(double planet_radius_m, double top_altitude_m, double altitude_m) {
+    static Horizon of(double planet_radius_m, double top_altitude_m, double altitude_m,
+                      std::span<const double> knots_m = {}) {
         const double R = planet_radius_m, top = top_altitude_m, h = altitude_m;
         Horizon hz;
         hz.theta_horizon = std::numbers::pi / 2 + std::atan2(std::sqrt(h * (2 * R + h)), R);
         if (h > top) hz.theta_space = std::numbers::pi / 2 + std::atan2(std::sqrt((h - top) * (2 * R + top + h)), R + top);
+        constexpr double kMinGap = 1e-6;
+        std::vector<double> theta;
+        for (const double a : knots_m)
+            if (a > 0.0 && a < h && a < top) theta.push_back(std::numbers::pi - std::asin(std::min((R + a) / (R + h), 1.0)));
+        std::sort(theta.begin(), theta.end());
+        for (const double t : theta)
+            if (t > std::max(hz.theta_space, std::numbers::pi / 2) + kMinGap && t < hz.theta_horizon - kMinGap &&
+                (hz.kinks.empty() || t > hz.kinks.back() + kMinGap))
+                hz.kinks.push_back(t);
         return hz;
     }
 };
@@ -68,7 +98,7 @@ struct SkyGridLayout {
     double ground_row_concentration = 0.25;  // c of the ground piece's rows (below the horizon)
 
     // The multiple-scattering view of M intervals (evaluator.hpp MsView).
-    static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.25, 0.0, 0.01}; }
+    static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.04, 0.0, 0.01}; }
     // The sky image's grid of G intervals (sky.hpp SkySettings::grid).
     static SkyGridLayout image(int G) { return {G, G + 1, 0.04, 1.0, 0.04}; }
     // Its rays: columns × rows, two pieces or one (the sky only).
@@ -83,35 +113,86 @@ struct SkyGrid {
     // whether a ray met the shell, and a whole row of the multiple-scattering view, which
     // shares one quadrature, could come out zero).
     static constexpr double kEdge = 1e-7;
+    // A piece of rows: `rows` nodes from θ `near` (its horizon end, its first row) to `far`,
+    // the fraction of the way f = f_of_x(x, c) at x = i/(rows − 1) — or, `both_ends`, crowded
+    // at both ends (half the piece each way, C¹ in the middle).
+    struct Piece {
+        int first = 0, rows = 0;
+        double near = 0.0, far = 0.0;
+        double c = 0.25;
+        bool both_ends = false;
+        double theta(double x) const {
+            const double f = both_ends ? (x <= 0.5 ? 0.5 * f_of_x(2.0 * x, c) : 1.0 - 0.5 * f_of_x(2.0 - 2.0 * x, c))
+                                       : f_of_x(x, c);
+            return near + f * (far - near);
+        }
+        // The continuous row (first + x (rows − 1)) of a θ inside the piece.
+        double row(double theta) const {
+            const double f = std::clamp((theta - near) / (far - near), 0.0, 1.0);
+            const double x = both_ends ? (f <= 0.5 ? 0.5 * x_of_f(2.0 * f, c) : 1.0 - 0.5 * x_of_f(2.0 - 2.0 * f, c))
+                                       : x_of_f(f, c);
+            return first + x * (rows - 1);
+        }
+        int last() const { return first + rows - 1; }
+    };
+
     int intervals = 0;  // ψ intervals (G)
     int rows_sky = 0, rows_ground = 0;
     int channels = 0;
-    double c = 0.25;        // SkyGridLayout::row_concentration (the sky piece)
-    double c_ground = 0.25;  // SkyGridLayout::ground_row_concentration
     double column_c = 0.0;  // SkyGridLayout::column_concentration
     Horizon hz;
+    // The sky's pieces from the horizon up (one, or split at tangent kinks), then the ground's
+    // (none when the grid has no ground rows).
+    std::vector<Piece> pieces;
     double sun_phi = 0.0;        // azimuth of the sun, atan2(s.y, s.x)
     std::vector<double> values;  // (rows_sky + rows_ground) × (G + 1) × channels
 
     // A grid of the layout's intervals and rows per piece (no ground rows when `sky_only` and
     // the horizon is at or below 90°, i.e. an upper-hemisphere image of a ground observer).
+    // The horizon's kinks split the sky: the piece above the highest kink keeps the layout's
+    // rows, each piece below it gets half as many plus one. A piece whose far end is a kink —
+    // or the limb of the top, for an observer above the atmosphere — is crowded at both ends,
+    // the piece that reaches the zenith at its near end only, as the sky of an observer below
+    // every knot (one piece) and the ground always are.
     static SkyGrid make(const SkyGridLayout& layout, const Horizon& hz, Vec3<double> sun, int channels, bool sky_only) {
+        const std::vector<double>& kinks = hz.kinks;
         SkyGrid g;
-        g.c = layout.row_concentration;
-        g.c_ground = layout.ground_row_concentration;
         g.column_c = layout.column_concentration;
         g.intervals = layout.intervals;
         g.hz = hz;
         g.channels = channels;
         g.sun_phi = std::atan2(sun.y, sun.x);
-        g.rows_sky = std::max(layout.rows_per_piece, 2);
-        g.rows_ground = sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : g.rows_sky;
+        const int rows = std::max(layout.rows_per_piece, 2);
+        const bool split = !kinks.empty() || hz.theta_space > 0.0;
+        // sky piece edges from the horizon up: θ_h, kinks descending, then the zenith or the limb
+        std::vector<double> edges{hz.theta_horizon};
+        for (auto k = kinks.rbegin(); k != kinks.rend(); ++k) edges.push_back(*k);
+        edges.push_back(hz.theta_space);
+        int first = 0;
+        for (std::size_t p = 0; p + 1 < edges.size(); ++p) {
+            const bool top_piece = p + 2 == edges.size();
+            const int n = top_piece ? rows : std::max(rows / 2 + 1, 4);
+            // crowded at the far end too where that is a kink or the limb (not the zenith)
+            const bool both_ends = split && !(top_piece && hz.theta_space == 0.0);
+            g.pieces.push_back({first, n, edges[p], edges[p + 1], layout.row_concentration, both_ends});
+            first += n;
+        }
+        g.rows_sky = first;
+        g.rows_ground = sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : rows;
+        if (g.rows_ground > 0)
+            g.pieces.push_back({first, rows, hz.theta_horizon, std::numbers::pi, layout.ground_row_concentration, false});
         g.values.assign(std::size_t(g.rows()) * g.columns() * channels, 0.0);
         return g;
     }
 
     int rows() const { return rows_sky + rows_ground; }
     int columns() const { return intervals + 1; }
+    // The piece that holds row k.
+    const Piece& piece_of_row(int k) const {
+        for (const Piece& p : pieces)
+            if (k <= p.last()) return p;
+        return pieces.back();
+    }
 
     static double f_of_x(double x, double c) { return x * (x + c) / (1.0 + c); }
     static double x_of_f(double f, double c) { return 0.5 * (-c + std::sqrt(c * c + 4.0 * (1.0 + c) * f)); }
@@ -125,26 +206,23 @@ struct SkyGrid {
         return column_c > 0.0 ? 0.5 * (-column_c + std::sqrt(column_c * column_c + 4.0 * (1.0 + column_c) * f)) : f;
     }
     double sky_span() const { return hz.theta_horizon - hz.theta_space; }
-    double ground_span() const { return std::numbers::pi - hz.theta_horizon; }
     // Zenith angle of grid row k (sky rows first).
     double row_theta(int k) const {
-        if (k < rows_sky) {
-            const double f = f_of_x(double(k) / (rows_sky - 1), c);
-            return std::max(hz.theta_horizon - f * sky_span(), 0.0) - (k == 0 ? kEdge : 0.0) +
-                   (k == rows_sky - 1 && hz.theta_space > 0.0 ? kEdge : 0.0);
-        }
-        const double f = f_of_x(double(k - rows_sky) / (rows_ground - 1), c_ground);
-        return std::min(hz.theta_horizon + f * ground_span(), std::numbers::pi) + (k == rows_sky ? kEdge : 0.0);
+        const Piece& p = piece_of_row(k);
+        const double theta = std::clamp(p.theta(double(k - p.first) / (p.rows - 1)), 0.0, std::numbers::pi);
+        if (k < rows_sky) return theta - (k == 0 ? kEdge : 0.0) + (k == rows_sky - 1 && hz.theta_space > 0.0 ? kEdge : 0.0);
+        return theta + (k == rows_sky ? kEdge : 0.0);
     }
     // Continuous grid row of a zenith angle; −1 for directions that miss the atmosphere.
     double row_of(double theta) const {
         if (theta <= hz.theta_horizon) {
             if (theta < hz.theta_space || sky_span() <= 0.0) return -1.0;
-            return x_of_f(std::clamp((hz.theta_horizon - theta) / sky_span(), 0.0, 1.0), c) * (rows_sky - 1);
+            // the sky's pieces from the horizon up: the first that reaches down to θ
+            for (const Piece& p : pieces)
+                if (theta >= p.far || p.last() == rows_sky - 1) return p.row(theta);
         }
         if (rows_ground == 0) return -1.0;
-        return rows_sky +
-               x_of_f(std::clamp((theta - hz.theta_horizon) / ground_span(), 0.0, 1.0), c_ground) * (rows_ground - 1);
+        return pieces.back().row(theta);
     }
     // The unit direction of node (row k, column j).
     Vec3<double> node_direction(int k, int j) const {
@@ -167,9 +245,8 @@ struct SkyGrid {
         const double fr = row_of(theta);
         if (fr < 0.0) return false;
         c.r0 = std::min(static_cast<int>(fr), rows() - 2);
-        // never interpolate across the horizon: clamp to the piece's last row
-        const int piece_end = c.r0 < rows_sky ? rows_sky - 1 : rows() - 1;
-        c.r1 = std::min(c.r0 + 1, piece_end);
+        // never interpolate across the horizon or a kink: clamp to the piece's last row
+        c.r1 = std::min(c.r0 + 1, piece_of_row(c.r0).last());
         c.wr = c.r1 > c.r0 ? fr - c.r0 : 0.0;
         column(phi, c.c0, c.wc);
         return true;
@@ -196,7 +273,8 @@ struct SkyGrid {
             for (int k = 0; k < 4; ++k) rows_out[k] = c.r0, w[k] = k == 1 ? 1.0 : 0.0;
             return;
         }
-        const int lo = c.r0 < rows_sky ? 0 : rows_sky, hi = c.r0 < rows_sky ? rows_sky - 1 : rows() - 1;
+        const Piece& p = piece_of_row(c.r0);
+        const int lo = p.first, hi = p.last();
         catmull_rom(c.wr, w);
         for (int k = 0; k < 4; ++k) rows_out[k] = std::clamp(c.r0 - 1 + k, lo, hi);
         if (c.r0 - 1 < lo) {  // w₀ v₋₁ = w₀ (2 v₀ − v₁)

@@ -483,7 +483,8 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     const long key = mirror_key(ctx.sun, W);
 
     // Per pixel or through the grid?
-    const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m);
+    const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m,
+                                   ctx.atmosphere().knots_m);
     const int G = grid_for(ctx.sun, settings);
     SkyGrid grid;
     // A grid or view too large for the memory: SkyError naming the setting (not std::bad_alloc).
@@ -807,7 +808,7 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     // One bar for both parts: the table precompute, when it runs here, counts as much as the
     // image (it takes about as long as a default 2048 × 1024 image's grid; docs/sky.md).
     const Horizon hz = Horizon::of(scene.planet.radius_m, scene.planet.atmosphere_top_m - scene.planet.radius_m,
-                                   scene.observer.altitude_m);
+                                   scene.observer.altitude_m, profile_knots_m(scene));
     const std::size_t image_work = frame_work(settings, grid_for(sun, settings), hz);
     const std::size_t ms_work = settings.multiple.enabled && !tables ? image_work : 0;
     const std::size_t total_work = ms_work + image_work;

@@ -176,7 +176,21 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
     for (std::size_t w = 0; w < atm.wavelengths_nm.size(); ++w)
         for (const auto& c : atm.constituents) atm.extinction_matrix.push_back(c.extinction_per_m[w]);
     atm.view_rule = unit_gauss_legendre(settings.view_samples);
+    atm.knots_m = profile_knots_m(scene);
     return atm;
+}
+
+std::vector<double> profile_knots_m(const Scene& scene) {
+    const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
+    std::vector<double> knots;
+    for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
+        const CompiledProfile c = compile_profile(scene.constituents[i].profile,
+                                                  "constituents[" + std::to_string(i) + "] (" +
+                                                      scene.constituents[i].name + ").profile",
+                                                  top, R);
+        knots.insert(knots.end(), c.altitude_m.begin(), c.altitude_m.end());
+    }
+    return knots;
 }
 
 void set_view_samples(Atmosphere& atmosphere, int view_samples) {

@@ -127,9 +127,9 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
         throw std::invalid_argument("multiple-scattering view: intervals = " + std::to_string(intervals) +
                                     ": must be in [2, 16384]");
     const std::size_t nw = wavelength_count();
+    const Horizon hz = Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m, atmosphere_.knots_m);
     MsView view{altitude_m, sun,
-                SkyGrid::make(SkyGridLayout::view(intervals), Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m),
-                              sun, int(2 * nw), false)};
+                SkyGrid::make(SkyGridLayout::view(intervals), hz, sun, int(2 * nw), false)};
     if (!tables_) return view;
     SkyGrid& g = view.grid;
     // A row at the zenith or the nadir is one direction in every column (to 1e-16 at the
