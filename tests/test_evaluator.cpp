@@ -463,7 +463,7 @@ TEST(EvaluatorInSky, FiniteAndNonNegativeAtTheExtremes) {
         Scene scene = load_preset(preset);
         scene.basis.kind = SpectralBasis::Kind::rgb_schuler;
         scene.basis.wavelengths_nm.clear();
-        SkySettings s = sky_settings(32, 16);
+        SkySettings s = sky_settings(64, 32);
         s.view.sun_disc = true;
         const MultipleScattering tables = sky_multiple_scattering(scene, s);
         // Exactly the zenith, the horizontal (view zenith 90°, two azimuths), the nadir (180°).
@@ -474,8 +474,9 @@ TEST(EvaluatorInSky, FiniteAndNonNegativeAtTheExtremes) {
                 scene.observer.altitude_m = altitude;
                 const std::string where = std::string(preset) + " sun " + std::to_string(elevation) + " altitude " +
                                           std::to_string(altitude);
-                // grid 8: 9 × 9 × 2 = 162 nodes, fewer than the 32 × 16 image's rays even when
-                // the mirror halves them (grid 16's 578 would be every pixel there: sky.hpp).
+                // grid 8: 9 × 9 × 2 = 162 nodes — 297 from above the ozone, the sky split at its
+                // three knots (sky_grid.hpp) — fewer than the 64 × 32 image's rays even when the
+                // mirror halves them (otherwise every pixel is evaluated: sky.hpp).
                 for (int grid : {0, 8}) {
                     s.grid = grid;
                     EXPECT_EQ(effective_sky_grid(scene, s), grid) << where;

@@ -637,10 +637,11 @@ void run_report(const Options& opt, const Reporter& rep) {
     // ---- Markdown --------------------------------------------------------------------------
     std::ostringstream md;
     // The sweep's grids that the accuracy images evaluate per pixel (sky.hpp: a grid only when it
-    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them).
+    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them; the
+    // observers, ≤ 10 km, are below every knot: the grid of a ground observer, Horizon{}).
     std::string per_pixel_grids;
     for (int g : grids)
-        if (SkyGridLayout::image(g).rays(false) >= double(W) * H / 2)
+        if (SkyGridLayout::image(g).rays(Horizon{}, false) >= double(W) * H / 2)
             per_pixel_grids += (per_pixel_grids.empty() ? "" : ", ") + std::to_string(g);
     const bool one = per_pixel_grids.find(',') == std::string::npos;
     per_pixel_grids = per_pixel_grids.empty() ? "every grid of the sweep is used"
@@ -676,7 +677,7 @@ void run_report(const Options& opt, const Reporter& rep) {
         const bool pass = r.check_all.p95 <= 0.01;
         all_pass = all_pass && pass;
         // A grid is used when it has fewer nodes than the image has rays (sky.hpp SkySettings::grid).
-        const long default_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(false));
+        const long default_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(Horizon{}, false));
         check << "* grid " << r.cfg.grid
               << (r.cfg.grid == 0 ? " (images of ≤ " + std::to_string(default_nodes) + " rays)" : std::string(" (larger images)"))
               << ": 95th percentile **" << pct(r.check_above.p95) << "** above the horizon, **" << pct(r.check_all.p95)

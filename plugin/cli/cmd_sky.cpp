@@ -369,7 +369,7 @@ void add_sky_command(CLI::App& app) {
         ->check(CLI::IsMember({"full", "upper"}))
         ->capture_default_str();
     cmd->add_option("--grid", o->grid,
-                    "Sky grid: G azimuth intervals over 0-180 deg and G + 1 rows above and below the horizon, pixels "
+                    "Sky grid: G azimuth intervals over 0-180 deg and G + 1 rows above and below the horizon (more where rays graze a profile's knots), pixels "
                     "interpolated, in [4, 16384] (0: every pixel, -1: auto = 40); every pixel when the grid has as many "
                     "nodes as the image has rays to evaluate")
         ->check(int_in(-1, kSkyMaxGrid))  // and not 1-3: validate(SkySettings)

@@ -101,9 +101,14 @@ inline constexpr std::size_t kMaxConstituents = 16;
 Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavelengths_nm,
                               const EvalSettings& settings = {});
 
-// The altitudes (metres) of the knots of every piecewise-linear profile of the scene — tents,
-// tables, constant layers, used or not — where a density or its slope jumps (sky_grid.hpp
-// Horizon::kinks; Atmosphere::knots_m holds the same). SceneError for a bad profile.
+// The altitudes (metres) of the knots of the scene's piecewise-linear profiles — tents,
+// tables, constant layers — where the density or its slope jumps by at least
+// kMinKinkStrength of the profile's mean slope (peak density / thickness; a jump of the
+// density counts as infinite), the strongest kMaxProfileKinks: where the sky grids split
+// (sky_grid.hpp Horizon::kinks; Atmosphere::knots_m holds the same). Profiles that are 0
+// everywhere have none. SceneError for a bad profile.
+inline constexpr double kMinKinkStrength = 1.0;
+inline constexpr std::size_t kMaxProfileKinks = 8;
 std::vector<double> profile_knots_m(const Scene& scene);
 
 // settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it)

@@ -96,7 +96,9 @@ struct SkySettings {
     // SkyGridLayout::image). By mirror symmetry the azimuth spans [0°, 180°] in `grid`
     // intervals, denser toward the sun; the zenith angle has two pieces split exactly at the
     // horizon (sky / ground, never interpolated across), each `grid` intervals, far denser
-    // toward the horizon. Each radiance column's single scattering is held over its
+    // toward the horizon — and, for an observer above a profile's knot or above the
+    // atmosphere, the sky split further where rays graze the knots (sky_grid.hpp
+    // Horizon::kinks), each piece below a kink `grid`/2 + 1 rows. Each radiance column's single scattering is held over its
     // constituents' phase functions mixed by optical depth and multiplied back per pixel (the
     // aureole is not interpolated). 0: evaluate every
     // pixel. −1 (auto): the grid of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than

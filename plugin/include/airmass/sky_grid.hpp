@@ -101,8 +101,32 @@ struct SkyGridLayout {
     static SkyGridLayout view(int M) { return {M, std::max(M / 2, 2) + 1, 0.04, 0.0, 0.01}; }
     // The sky image's grid of G intervals (sky.hpp SkySettings::grid).
     static SkyGridLayout image(int G) { return {G, G + 1, 0.04, 1.0, 0.04}; }
-    // Its rays: columns × rows, two pieces or one (the sky only).
-    double rays(bool one_piece) const { return double(intervals + 1) * rows_per_piece * (one_piece ? 1 : 2); }
+    // The sky's piece edges from the horizon up: θ_h, the horizon's kinks descending (none for
+    // an image of the sky only, which reads no row below the horizontal), then the zenith or
+    // the limb (θ_space).
+    static std::vector<double> sky_edges(const Horizon& hz, bool sky_only) {
+        std::vector<double> edges{hz.theta_horizon};
+        if (!sky_only) edges.insert(edges.end(), hz.kinks.rbegin(), hz.kinks.rend());
+        edges.push_back(hz.theta_space);
+        return edges;
+    }
+    // Rows of a sky piece: the top one (reaching the zenith or the limb) the layout's, each
+    // below a kink half as many plus one.
+    int piece_rows(bool top_piece) const {
+        const int rows = std::max(rows_per_piece, 2);
+        return top_piece ? rows : std::max(rows / 2 + 1, 4);
+    }
+    // Rows below the horizon: none for an image of the sky only when the horizon is at or
+    // below 90° (an upper hemisphere).
+    int ground_rows(const Horizon& hz, bool sky_only) const {
+        return sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : std::max(rows_per_piece, 2);
+    }
+    // Its rays for an observer (SkyGrid::make's grid): columns × rows.
+    double rays(const Horizon& hz, bool sky_only) const {
+        const std::size_t pieces = sky_edges(hz, sky_only).size() - 1;
+        return double(intervals + 1) *
+               double(piece_rows(true) + int(pieces - 1) * piece_rows(false) + ground_rows(hz, sky_only));
+    }
 };
 
 struct SkyGrid {
@@ -149,38 +173,35 @@ struct SkyGrid {
 
     // A grid of the layout's intervals and rows per piece (no ground rows when `sky_only` and
     // the horizon is at or below 90°, i.e. an upper-hemisphere image of a ground observer).
-    // The horizon's kinks split the sky: the piece above the highest kink keeps the layout's
-    // rows, each piece below it gets half as many plus one. A piece whose far end is a kink —
+    // The horizon's kinks split the sky (SkyGridLayout::sky_edges, piece_rows: the piece above
+    // the highest kink keeps the layout's rows, each below it half as many plus one; an image
+    // of the sky only is not split, as it reads no row below the horizontal). A piece whose far end is a kink —
     // or the limb of the top, for an observer above the atmosphere — is crowded at both ends,
     // the piece that reaches the zenith at its near end only, as the sky of an observer below
     // every knot (one piece) and the ground always are.
     static SkyGrid make(const SkyGridLayout& layout, const Horizon& hz, Vec3<double> sun, int channels, bool sky_only) {
-        const std::vector<double>& kinks = hz.kinks;
         SkyGrid g;
         g.column_c = layout.column_concentration;
         g.intervals = layout.intervals;
         g.hz = hz;
         g.channels = channels;
         g.sun_phi = std::atan2(sun.y, sun.x);
-        const int rows = std::max(layout.rows_per_piece, 2);
-        const bool split = !kinks.empty() || hz.theta_space > 0.0;
-        // sky piece edges from the horizon up: θ_h, kinks descending, then the zenith or the limb
-        std::vector<double> edges{hz.theta_horizon};
-        for (auto k = kinks.rbegin(); k != kinks.rend(); ++k) edges.push_back(*k);
-        edges.push_back(hz.theta_space);
+        const std::vector<double> edges = SkyGridLayout::sky_edges(hz, sky_only);
+        const bool split = edges.size() > 2 || hz.theta_space > 0.0;
         int first = 0;
         for (std::size_t p = 0; p + 1 < edges.size(); ++p) {
             const bool top_piece = p + 2 == edges.size();
-            const int n = top_piece ? rows : std::max(rows / 2 + 1, 4);
+            const int n = layout.piece_rows(top_piece);
             // crowded at the far end too where that is a kink or the limb (not the zenith)
             const bool both_ends = split && !(top_piece && hz.theta_space == 0.0);
             g.pieces.push_back({first, n, edges[p], edges[p + 1], layout.row_concentration, both_ends});
             first += n;
         }
         g.rows_sky = first;
-        g.rows_ground = sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : rows;
+        g.rows_ground = layout.ground_rows(hz, sky_only);
         if (g.rows_ground > 0)
-            g.pieces.push_back({first, rows, hz.theta_horizon, std::numbers::pi, layout.ground_row_concentration, false});
+            g.pieces.push_back({first, g.rows_ground, hz.theta_horizon, std::numbers::pi,
+                                layout.ground_row_concentration, false});
         g.values.assign(std::size_t(g.rows()) * g.columns() * channels, 0.0);
         return g;
     }
@@ -208,10 +229,17 @@ struct SkyGrid {
     double sky_span() const { return hz.theta_horizon - hz.theta_space; }
     // Zenith angle of grid row k (sky rows first).
     double row_theta(int k) const {
+        const double theta = row_theta_raw(k);
+        // kEdge, or a quarter of the row's spacing where a piece is so narrow (far from the
+        // planet, a knot just below the observer) that kEdge would pass the next row
+        const auto edge = [&](int next) { return std::min(kEdge, 0.25 * std::abs(row_theta_raw(next) - theta)); };
+        if (k < rows_sky)
+            return theta - (k == 0 ? edge(1) : 0.0) + (k == rows_sky - 1 && hz.theta_space > 0.0 ? edge(k - 1) : 0.0);
+        return theta + (k == rows_sky ? edge(k + 1) : 0.0);
+    }
+    double row_theta_raw(int k) const {
         const Piece& p = piece_of_row(k);
-        const double theta = std::clamp(p.theta(double(k - p.first) / (p.rows - 1)), 0.0, std::numbers::pi);
-        if (k < rows_sky) return theta - (k == 0 ? kEdge : 0.0) + (k == rows_sky - 1 && hz.theta_space > 0.0 ? kEdge : 0.0);
-        return theta + (k == rows_sky ? kEdge : 0.0);
+        return std::clamp(p.theta(double(k - p.first) / (p.rows - 1)), 0.0, std::numbers::pi);
     }
     // Continuous grid row of a zenith angle; −1 for directions that miss the atmosphere.
     double row_of(double theta) const {

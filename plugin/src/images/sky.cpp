@@ -316,29 +316,37 @@ double pixel_rays(const glm::dvec3& sun, const SkySettings& settings) {
     return double(evaluated_columns(mirror_key(sun, settings.width), settings.width).size()) * image_rows;
 }
 
-// Rays of the image's grid of G intervals and of the multiple-scattering view of M
-// (sky_grid.hpp SkyGridLayout), one piece (the sky) for an upper-hemisphere image.
-double grid_rays(int G, bool sky_only) { return SkyGridLayout::image(G).rays(sky_only); }
-double view_rays(int M) { return SkyGridLayout::view(M).rays(false); }
+// Rays of the image's grid of G intervals and of the multiple-scattering view of M for the
+// observer of `hz` (sky_grid.hpp SkyGridLayout::rays: its pieces, the sky only for an
+// upper-hemisphere image).
+double grid_rays(int G, bool sky_only, const Horizon& hz) { return SkyGridLayout::image(G).rays(hz, sky_only); }
+double view_rays(int M, const Horizon& hz) { return SkyGridLayout::view(M).rays(hz, false); }
 
 // settings.grid resolved for a sun (sky.hpp SkySettings::grid): a grid is used only when it
 // evaluates fewer rays than the pixels would (the mirror halves the rays of a per-pixel
 // image); otherwise every pixel is evaluated, the grid's own limit, exact and cheaper.
-int grid_for(const glm::dvec3& sun, const SkySettings& settings) {
+int grid_for(const glm::dvec3& sun, const SkySettings& settings, const Horizon& hz) {
     const int G = settings.grid >= 0 ? settings.grid : kSkyDefaultGrid;
     if (G == 0) return 0;
-    return grid_rays(G, settings.region == SkyRegion::upper) < pixel_rays(sun, settings) ? G : 0;
+    return grid_rays(G, settings.region == SkyRegion::upper, hz) < pixel_rays(sun, settings) ? G : 0;
 }
 
 // settings.multiple_grid resolved likewise (SkySettings::multiple_grid): the view is built only
 // when it integrates fewer rays than the render evaluates (the grid's nodes, or the pixels),
 // else the tables are integrated along every evaluated ray.
-int ms_grid_for(const glm::dvec3& sun, const SkySettings& settings) {
+int ms_grid_for(const glm::dvec3& sun, const SkySettings& settings, const Horizon& hz) {
     const int M = settings.multiple.enabled ? settings.multiple_grid : 0;
     if (M == 0) return 0;
-    const int G = grid_for(sun, settings);
-    const double evaluated = G > 0 ? grid_rays(G, settings.region == SkyRegion::upper) : pixel_rays(sun, settings);
-    return view_rays(M) < evaluated ? M : 0;
+    const int G = grid_for(sun, settings, hz);
+    const double evaluated =
+        G > 0 ? grid_rays(G, settings.region == SkyRegion::upper, hz) : pixel_rays(sun, settings);
+    return view_rays(M, hz) < evaluated ? M : 0;
+}
+
+// The observer's horizon in a scene (its altitude, the knots of its profiles).
+Horizon scene_horizon(const Scene& scene) {
+    return Horizon::of(scene.planet.radius_m, scene.planet.atmosphere_top_m - scene.planet.radius_m,
+                       scene.observer.altitude_m, profile_knots_m(scene));
 }
 
 // The progress units of one image (render_frame reports exactly these): a unit per grid row
@@ -353,11 +361,11 @@ std::size_t frame_work(const SkySettings& settings, int G, const Horizon& hz) {
 }  // namespace
 
 int effective_sky_grid(const Scene& scene, const SkySettings& settings) {
-    return grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings);
+    return grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings, scene_horizon(scene));
 }
 
 int effective_sky_multiple_grid(const Scene& scene, const SkySettings& settings) {
-    return ms_grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings);
+    return ms_grid_for(sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg), settings, scene_horizon(scene));
 }
 
 MultipleScattering sky_multiple_scattering(const Scene& scene, const SkySettings& settings, const RenderHooks& hooks) {
@@ -485,7 +493,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     // Per pixel or through the grid?
     const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m,
                                    ctx.atmosphere().knots_m);
-    const int G = grid_for(ctx.sun, settings);
+    const int G = grid_for(ctx.sun, settings, hz);
     SkyGrid grid;
     // A grid or view too large for the memory: SkyError naming the setting (not std::bad_alloc).
     const auto too_large = [](const char* field, int n, double values) {
@@ -497,7 +505,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         try {
             grid = SkyGrid::make(SkyGridLayout::image(G), hz, Vec3<double>(ctx.sun), kGridChannels, upper);
         } catch (const std::bad_alloc&) {
-            throw too_large("grid", G, grid_rays(G, upper) * kGridChannels);
+            throw too_large("grid", G, grid_rays(G, upper, hz) * kGridChannels);
         }
     }
     const int grid_rows = grid.rows();
@@ -525,11 +533,11 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     std::vector<Scratch> scratch(static_cast<std::size_t>(threads));
     // Multiple scattering interpolated from the observer's view (MsView) unless asked per ray.
     std::optional<MsView> view;
-    if (const int M = ms_grid_for(ctx.sun, settings); ctx.evaluator.tables() && M > 0)
+    if (const int M = ms_grid_for(ctx.sun, settings, hz); ctx.evaluator.tables() && M > 0)
         try {
             view = ctx.evaluator.ms_view(ctx.altitude_m, Vec3<double>(ctx.sun), M, threads, hooks);
         } catch (const std::bad_alloc&) {
-            throw too_large("multiple_grid", M, view_rays(M) * 2.0 * double(nw));
+            throw too_large("multiple_grid", M, view_rays(M, hz) * 2.0 * double(nw));
         }
     // The radiance of a batch of directions (single and multiple scattering: the evaluator).
     auto evaluate_with = [&](const Evaluator& ev, Scratch& s, std::size_t n) {
@@ -807,9 +815,8 @@ FloatImage render_sky(const Scene& scene, const SkySettings& settings, const Ren
     const glm::dvec3 sun = sun_direction(scene.sun.elevation_deg, scene.sun.azimuth_deg);
     // One bar for both parts: the table precompute, when it runs here, counts as much as the
     // image (it takes about as long as a default 2048 × 1024 image's grid; docs/sky.md).
-    const Horizon hz = Horizon::of(scene.planet.radius_m, scene.planet.atmosphere_top_m - scene.planet.radius_m,
-                                   scene.observer.altitude_m, profile_knots_m(scene));
-    const std::size_t image_work = frame_work(settings, grid_for(sun, settings), hz);
+    const Horizon hz = scene_horizon(scene);
+    const std::size_t image_work = frame_work(settings, grid_for(sun, settings, hz), hz);
     const std::size_t ms_work = settings.multiple.enabled && !tables ? image_work : 0;
     const std::size_t total_work = ms_work + image_work;
     const SkySession session(scene, settings, hooks, {std::shared_ptr<void>(), tables} /* not owned */, ms_work,

@@ -37,7 +37,7 @@ namespace {
 class BufferedOStream final : public Imf::OStream {
 public:
     explicit BufferedOStream(const fs::path& path)
-        : Imf::OStream(path.c_str()), file_(std::fopen(path.c_str(), "wb")), buffer_(new char[kBuffer]) {
+        : Imf::OStream(path.c_str()), buffer_(new char[kBuffer]), file_(std::fopen(path.c_str(), "wb")) {
         if (!file_) fail("cannot open");
         std::setvbuf(file_, buffer_.get(), _IOFBF, kBuffer);  // without it: the stdio buffer
     }
@@ -46,19 +46,25 @@ public:
     }
     void write(const char c[], int n) override {
         if (n > 0 && std::fwrite(c, 1, std::size_t(n), file_) != std::size_t(n)) fail("write failed");
+        pos_ += uint64_t(std::max(n, 0));
     }
-    uint64_t tellp() override {
-        const auto pos = ftello(file_);
-        if (pos < 0) fail("tell failed");
-        return uint64_t(pos);
-    }
+    // The position written to, kept here: OpenEXR's OutputFile destructor asks it outside its
+    // own error handling, where a throw would end the process.
+    uint64_t tellp() override { return pos_; }
     void seekp(uint64_t pos) override {
         if (fseeko(file_, off_t(pos), SEEK_SET) != 0) fail("seek failed");
+        pos_ = pos;
     }
-    // Flushes and closes: the errors a destructor would swallow.
+    // Flushes and closes: the errors a destructor would swallow, and those of writes whose
+    // errors OpenEXR's destructor swallowed (the stream's error flag).
     void close() {
+        const bool failed = std::fflush(file_) != 0 || std::ferror(file_);
+        const int saved = errno;
         std::FILE* f = std::exchange(file_, nullptr);
-        if (std::fclose(f) != 0) fail("close failed");
+        if (std::fclose(f) != 0 || failed) {
+            if (failed) errno = saved;
+            fail("write failed");
+        }
     }
 
 private:
@@ -66,8 +72,9 @@ private:
     [[noreturn]] void fail(const char* what) const {
         throw std::runtime_error(std::string(what) + " (" + std::strerror(errno) + ")");
     }
+    std::unique_ptr<char[]> buffer_;  // before file_: the stream's buffer outlives it
     std::FILE* file_;
-    std::unique_ptr<char[]> buffer_;
+    uint64_t pos_ = 0;
 };
 
 }  // namespace

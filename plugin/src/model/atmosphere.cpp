@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -182,15 +183,37 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
 
 std::vector<double> profile_knots_m(const Scene& scene) {
     const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
-    std::vector<double> knots;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, double>> knots;  // (strength, altitude)
     for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
         const CompiledProfile c = compile_profile(scene.constituents[i].profile,
                                                   "constituents[" + std::to_string(i) + "] (" +
                                                       scene.constituents[i].name + ").profile",
                                                   top, R);
-        knots.insert(knots.end(), c.altitude_m.begin(), c.altitude_m.end());
+        if (c.kind != CompiledProfile::Kind::piecewise_linear || profile_is_zero(c)) continue;
+        const std::vector<double>&a = c.altitude_m, &d = c.density;
+        const std::size_t n = a.size();
+        const double d_max = *std::max_element(d.begin(), d.end()), thickness = a.back() - a.front();
+        // The slope on either side of a knot (0 outside the profile); a density that jumps —
+        // at a repeated altitude or at an end that is not 0 — counts as infinitely steep.
+        const auto slope = [&](std::size_t j) {  // of the piece [a_j, a_{j+1}]
+            return a[j + 1] > a[j] ? (d[j + 1] - d[j]) / (a[j + 1] - a[j]) : kInf;
+        };
+        for (std::size_t j = 0; j < n; ++j) {
+            const double left = j == 0 ? (d[0] > 0.0 ? kInf : 0.0) : slope(j - 1);
+            const double right = j + 1 == n ? (d[n - 1] > 0.0 ? kInf : 0.0) : slope(j);
+            const double jump = std::isinf(left) || std::isinf(right) ? kInf : std::abs(right - left);
+            // The slope's jump against the profile's mean slope d_max / thickness (a tent's
+            // knots: 2, 4, 2); smaller ones, a smooth curve sampled densely, are no kinks.
+            const double strength = jump * thickness / d_max;
+            if (strength >= kMinKinkStrength) knots.emplace_back(strength, a[j]);
+        }
     }
-    return knots;
+    std::stable_sort(knots.begin(), knots.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+    if (knots.size() > kMaxProfileKinks) knots.resize(kMaxProfileKinks);
+    std::vector<double> altitudes;
+    for (const auto& k : knots) altitudes.push_back(k.second);
+    return altitudes;
 }
 
 void set_view_samples(Atmosphere& atmosphere, int view_samples) {
