@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -435,6 +436,9 @@ TEST(MsView, RefusedForAnotherObserverAndZeroWithoutTables) {
     std::vector<double> t(3), r(3), m(3), l(3);
     EXPECT_THROW(ev.radiance(3.0, sun, std::span(&dir, 1), RadianceOut{t, r, m, l}, &view), std::invalid_argument);
     EXPECT_THROW(ev.ms_view(2.0, sun, 1, 1), std::invalid_argument);
+    // below the ground or not a number: refused, not a view of NaN zenith angles
+    for (const double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()})
+        EXPECT_THROW(ev.ms_view(bad, sun, 16, 1), std::invalid_argument) << bad;
     const Evaluator single(atm);
     const MsView empty = single.ms_view(2.0, sun, 16, 1);
     for (double v : empty.grid.values) EXPECT_EQ(v, 0.0);

@@ -637,16 +637,27 @@ void run_report(const Options& opt, const Reporter& rep) {
     // ---- Markdown --------------------------------------------------------------------------
     std::ostringstream md;
     // The sweep's grids that the accuracy images evaluate per pixel (sky.hpp: a grid only when it
-    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them; the
-    // observers, ≤ 10 km, are below every knot: the grid of a ground observer, Horizon{}).
-    std::string per_pixel_grids;
-    for (int g : grids)
-        if (SkyGridLayout::image(g).rays(Horizon{}, false) >= double(W) * H / 2)
-            per_pixel_grids += (per_pixel_grids.empty() ? "" : ", ") + std::to_string(g);
-    const bool one = per_pixel_grids.find(',') == std::string::npos;
-    per_pixel_grids = per_pixel_grids.empty() ? "every grid of the sweep is used"
-                      : one ? "grid " + per_pixel_grids + " is evaluated per pixel"
-                            : "grids " + per_pixel_grids + " are evaluated per pixel";
+    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them). The
+    // observers are below every knot (≤ 10 km); the ground one has one sky piece, those at 5
+    // and 10 km two (split at the horizontal: sky_grid.hpp Horizon::kinks), so more rows.
+    const double R = base.planet.radius_m, top = base.planet.atmosphere_top_m - base.planet.radius_m;
+    const Horizon ground_hz = Horizon::of(R, top, 0.0, profile_knots_m(base));
+    const Horizon raised_hz = Horizon::of(R, top, 5e3, profile_knots_m(base));
+    const auto per_pixel = [&](const Horizon& hz) {  // "40, 64"
+        std::string list;
+        for (int g : grids)
+            if (SkyGridLayout::image(g).rays(hz, false) >= double(W) * H / 2)
+                list += (list.empty() ? "" : ", ") + std::to_string(g);
+        return list;
+    };
+    const std::string ground_list = per_pixel(ground_hz), raised_list = per_pixel(raised_hz);
+    const bool one = ground_list.find(',') == std::string::npos;
+    std::string per_pixel_grids = ground_list.empty() ? std::string("every grid of the sweep is used")
+                                  : one               ? "grid " + ground_list + " is evaluated per pixel"
+                                                      : "grids " + ground_list + " are evaluated per pixel";
+    if (raised_list != ground_list)
+        per_pixel_grids += " on the ground, " + (raised_list.empty() ? std::string("none") : raised_list) +
+                           " from 5 and 10 km (the horizontal splits their sky: more rows)";
     md << "Measured by `airmass report sky` (preset `" << opt.preset << "`, " << W << "×" << H
        << " full-sphere images, sun rotation 0°, no sun disc) against a converged reference computed in the same run: "
           "exact Chapman, "
@@ -677,9 +688,12 @@ void run_report(const Options& opt, const Reporter& rep) {
         const bool pass = r.check_all.p95 <= 0.01;
         all_pass = all_pass && pass;
         // A grid is used when it has fewer nodes than the image has rays (sky.hpp SkySettings::grid).
-        const long default_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(Horizon{}, false));
+        const long ground_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(ground_hz, false));
+        const long raised_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(raised_hz, false));
         check << "* grid " << r.cfg.grid
-              << (r.cfg.grid == 0 ? " (images of ≤ " + std::to_string(default_nodes) + " rays)" : std::string(" (larger images)"))
+              << (r.cfg.grid == 0 ? " (images of ≤ " + std::to_string(ground_nodes) + " rays on the ground, " +
+                                        std::to_string(raised_nodes) + " at 5 and 10 km)"
+                                  : std::string(" (larger images)"))
               << ": 95th percentile **" << pct(r.check_above.p95) << "** above the horizon, **" << pct(r.check_all.p95)
               << "** over the full sphere; worst single condition " << pct(r.worst_p95_above) << " above the horizon; "
               << (pass ? "≤ 1 %" : "**> 1 %**") << "\n";

@@ -91,9 +91,9 @@ public:
     void radiance(double altitude_m, Vec3<double> sun_direction, std::span<const Vec3<double>> view_directions,
                   RadianceOut out, const MsView* view = nullptr, std::span<double> multiple_inscatter = {}) const;
 
-    // The multiple-scattering view of an observer (MsView), `intervals` ≥ 2, its rays
-    // integrated on `threads` threads (0: all); cancellable through hooks.cancel (Cancelled).
-    // All zero without tables.
+    // The multiple-scattering view of an observer (MsView) at altitude_m ≥ 0, `intervals` in
+    // [2, 16384] (std::invalid_argument otherwise), its rays integrated on `threads` threads
+    // (0: all); cancellable through hooks.cancel (Cancelled). All zero without tables.
     MsView ms_view(double altitude_m, Vec3<double> sun_direction, int intervals, int threads = 0,
                    const RenderHooks& hooks = {}) const;
 

@@ -126,6 +126,9 @@ MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, in
     if (intervals < 2 || intervals > 16384)
         throw std::invalid_argument("multiple-scattering view: intervals = " + std::to_string(intervals) +
                                     ": must be in [2, 16384]");
+    if (!(std::isfinite(altitude_m) && altitude_m >= 0.0))
+        throw std::invalid_argument("multiple-scattering view: altitude_m = " + std::to_string(altitude_m) +
+                                    ": must be finite and >= 0 (the observer above the ground)");
     const std::size_t nw = wavelength_count();
     const Horizon hz = Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m, atmosphere_.knots_m);
     MsView view{altitude_m, sun,
