@@ -557,6 +557,8 @@ TEST(SkyGrid, PiecesSplitAtTheKnotsTangentRaysAndNeverInterpolateAcross) {
             }
         }
     EXPECT_TRUE(profile_knots_m(smooth).empty());
+    // compile_atmosphere keeps the same knots from the profiles it compiled
+    EXPECT_EQ(compile_atmosphere(scene, std::vector<double>{450.0, 550.0}).knots_m, knots);
     Scene layered = earth();
     const Constituent ozone = *std::find_if(layered.constituents.begin(), layered.constituents.end(),
                                             [](const Constituent& c) { return c.profile.kind == DensityProfile::Kind::tent; });

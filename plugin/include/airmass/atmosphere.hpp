@@ -106,10 +106,13 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
 // kMinKinkStrength of the profile's mean slope (peak density / thickness; a jump of the
 // density counts as infinite), the strongest kMaxProfileKinks: where the sky grids split
 // (sky_grid.hpp Horizon::kinks; Atmosphere::knots_m holds the same). Profiles that are 0
-// everywhere have none. SceneError for a bad profile.
+// everywhere have none. SceneError for a bad profile. The second form takes the profiles
+// already compiled (compile_atmosphere: every constituent's, active at its wavelengths or not,
+// so that both forms agree).
 inline constexpr double kMinKinkStrength = 1.0;
 inline constexpr std::size_t kMaxProfileKinks = 8;
 std::vector<double> profile_knots_m(const Scene& scene);
+std::vector<double> profile_knots_m(std::span<const CompiledProfile> profiles);
 
 // settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it)
 // with its quadrature rule (view_rule).

@@ -91,6 +91,11 @@ public:
     void radiance(double altitude_m, Vec3<double> sun_direction, std::span<const Vec3<double>> view_directions,
                   RadianceOut out, const MsView* view = nullptr, std::span<double> multiple_inscatter = {}) const;
 
+    // The horizon of an observer at altitude_m ≥ 0 in this atmosphere, with its kinks (the
+    // profiles' knots, the horizontal): where the sky grids split (sky_grid.hpp).
+    // std::invalid_argument for a negative or non-finite altitude.
+    Horizon horizon(double altitude_m) const;
+
     // The multiple-scattering view of an observer (MsView) at altitude_m ≥ 0, `intervals` in
     // [2, 16384] (std::invalid_argument otherwise), its rays integrated on `threads` threads
     // (0: all); cancellable through hooks.cancel (Cancelled). All zero without tables.

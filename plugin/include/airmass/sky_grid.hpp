@@ -138,12 +138,13 @@ struct SkyGridLayout {
     int ground_rows(const Horizon& hz, bool sky_only) const {
         return sky_only && hz.theta_horizon >= std::numbers::pi / 2 ? 0 : std::max(rows_per_piece, 2);
     }
-    // Its rays for an observer (SkyGrid::make's grid): columns × rows.
-    double rays(const Horizon& hz, bool sky_only) const {
+    // Its rows for an observer (SkyGrid::make's grid: every piece's, sky and ground).
+    int rows(const Horizon& hz, bool sky_only) const {
         const std::size_t pieces = sky_edges(hz, sky_only).size() - 1;
-        return double(intervals + 1) *
-               double(piece_rows(true) + int(pieces - 1) * piece_rows(false) + ground_rows(hz, sky_only));
+        return piece_rows(true) + int(pieces - 1) * piece_rows(false) + ground_rows(hz, sky_only);
     }
+    // Its rays for an observer: columns × rows.
+    double rays(const Horizon& hz, bool sky_only) const { return double(intervals + 1) * double(rows(hz, sky_only)); }
 };
 
 struct SkyGrid {

@@ -353,9 +353,8 @@ Horizon scene_horizon(const Scene& scene) {
 // and per image row.
 std::size_t frame_work(const SkySettings& settings, int G, const Horizon& hz) {
     if (G <= 0) return std::size_t(settings.height);
-    const SkyGrid shape =
-        SkyGrid::make(SkyGridLayout::image(G), hz, Vec3<double>(0.0, 0.0, 1.0), 0, settings.region == SkyRegion::upper);
-    return std::size_t(shape.rows()) + std::size_t(settings.height);
+    return std::size_t(SkyGridLayout::image(G).rows(hz, settings.region == SkyRegion::upper)) +
+           std::size_t(settings.height);
 }
 
 }  // namespace
@@ -491,8 +490,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     const long key = mirror_key(ctx.sun, W);
 
     // Per pixel or through the grid?
-    const Horizon hz = Horizon::of(ctx.atmosphere().planet_radius_m, ctx.atmosphere().top_altitude_m, ctx.altitude_m,
-                                   ctx.atmosphere().knots_m);
+    const Horizon hz = ctx.evaluator.horizon(ctx.altitude_m);
     const int G = grid_for(ctx.sun, settings, hz);
     SkyGrid grid;
     // A grid or view too large for the memory: SkyError naming the setting (not std::bad_alloc).

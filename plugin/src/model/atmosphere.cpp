@@ -142,6 +142,7 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
         atm.sun_irradiance.push_back(e);
     }
 
+    std::vector<CompiledProfile> profiles;  // every constituent's, for the knots
     for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
         const Constituent& sc = scene.constituents[i];
         const std::string field = "constituents[" + std::to_string(i) + "] (" + sc.name + ")";
@@ -168,6 +169,7 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
             c.scatters = c.scatters || s > 0.0;
         }
         c.profile = compile_profile(sc.profile, field + ".profile", atm.top_altitude_m, atm.planet_radius_m);
+        profiles.push_back(c.profile);
         if (!active || profile_is_zero(c.profile)) continue;  // a scene pays only for what it declares
         atm.constituents.push_back(std::move(c));
     }
@@ -177,19 +179,25 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
     for (std::size_t w = 0; w < atm.wavelengths_nm.size(); ++w)
         for (const auto& c : atm.constituents) atm.extinction_matrix.push_back(c.extinction_per_m[w]);
     atm.view_rule = unit_gauss_legendre(settings.view_samples);
-    atm.knots_m = profile_knots_m(scene);
+    atm.knots_m = profile_knots_m(profiles);
     return atm;
 }
 
 std::vector<double> profile_knots_m(const Scene& scene) {
     const double R = scene.planet.radius_m, top = scene.planet.atmosphere_top_m - R;
+    std::vector<CompiledProfile> profiles;
+    for (std::size_t i = 0; i < scene.constituents.size(); ++i)
+        profiles.push_back(compile_profile(scene.constituents[i].profile,
+                                           "constituents[" + std::to_string(i) + "] (" +
+                                               scene.constituents[i].name + ").profile",
+                                           top, R));
+    return profile_knots_m(profiles);
+}
+
+std::vector<double> profile_knots_m(std::span<const CompiledProfile> profiles) {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     std::vector<std::pair<double, double>> knots;  // (strength, altitude)
-    for (std::size_t i = 0; i < scene.constituents.size(); ++i) {
-        const CompiledProfile c = compile_profile(scene.constituents[i].profile,
-                                                  "constituents[" + std::to_string(i) + "] (" +
-                                                      scene.constituents[i].name + ").profile",
-                                                  top, R);
+    for (const CompiledProfile& c : profiles) {
         if (c.kind != CompiledProfile::Kind::piecewise_linear || profile_is_zero(c)) continue;
         const std::vector<double>&a = c.altitude_m, &d = c.density;
         const std::size_t n = a.size();

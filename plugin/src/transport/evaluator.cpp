@@ -121,16 +121,20 @@ void MsView::lookup(Vec3<double> d, std::span<const double> T, std::span<double>
     for (std::size_t w = 0; w < inscatter.size(); ++w) inscatter[w] = v[w] * (1.0 - T[w]);
 }
 
+Horizon Evaluator::horizon(double altitude_m) const {
+    if (!(std::isfinite(altitude_m) && altitude_m >= 0.0))
+        throw std::invalid_argument("observer altitude_m = " + std::to_string(altitude_m) +
+                                    ": must be finite and >= 0 (above the ground)");
+    return Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m, atmosphere_.knots_m);
+}
+
 MsView Evaluator::ms_view(double altitude_m, Vec3<double> sun, int intervals, int threads,
                           const RenderHooks& hooks) const {
     if (intervals < 2 || intervals > 16384)
         throw std::invalid_argument("multiple-scattering view: intervals = " + std::to_string(intervals) +
                                     ": must be in [2, 16384]");
-    if (!(std::isfinite(altitude_m) && altitude_m >= 0.0))
-        throw std::invalid_argument("multiple-scattering view: altitude_m = " + std::to_string(altitude_m) +
-                                    ": must be finite and >= 0 (the observer above the ground)");
     const std::size_t nw = wavelength_count();
-    const Horizon hz = Horizon::of(atmosphere_.planet_radius_m, atmosphere_.top_altitude_m, altitude_m, atmosphere_.knots_m);
+    const Horizon hz = horizon(altitude_m);
     MsView view{altitude_m, sun,
                 SkyGrid::make(SkyGridLayout::view(intervals), hz, sun, int(2 * nw), false)};
     if (!tables_) return view;
