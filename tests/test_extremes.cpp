@@ -71,6 +71,14 @@ Outcome run(const std::string& toml, const std::string& what, bool multiple) {
         s.threads = 2;  // the tables' too
         s.multiple.enabled = multiple;
         expect_image_ok(render_sky(scene, s), what + " (sky)");
+        // The same through the grids (sky_grid.hpp: pieces split at the horizon, the knots'
+        // tangent rays, the horizontal and the limb), as a large image uses them: grid 4 and a
+        // view of 2 intervals have fewer rays than these 256 pixel rays.
+        s.grid = 4;
+        s.multiple_grid = 2;
+        EXPECT_EQ(effective_sky_grid(scene, s), 4) << what;
+        expect_image_ok(render_sky(scene, s), what + " (sky through the grids)");
+        s.grid = 0;
 
         const double wl[] = {680.0, 550.0, 440.0};
         EvalSettings es;
@@ -210,7 +218,9 @@ TEST(Extremes, Sun) {
 
 TEST(Extremes, Observer) {
     sweep({"observer.altitude_km", [](const std::string& v) { return kBase + "[observer]\naltitude_km = " + v + "\n"; },
-           {{down(0.0), E::refuse}, {0.0, E::accept}, {kDenorm, E::accept}, {1e-3, E::accept}, {59.999, E::accept},
+           {{down(0.0), E::refuse}, {0.0, E::accept}, {kDenorm, E::accept}, {1e-3, E::accept},
+            {0.0606, E::accept} /* the horizontal's split starts (0.25° dip) */, {25.0, E::accept} /* a knot */,
+            {59.999, E::accept},
             {60.0, E::accept}, {60.001, E::accept}, {1e6, E::accept}, {up(1e6), E::refuse}, {kInf, E::refuse},
             {kNaN, E::refuse}}});
 }
