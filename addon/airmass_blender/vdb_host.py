@@ -34,7 +34,10 @@ NO_MODULE_MESSAGE = ("this Blender has no OpenVDB Python module (neither 'openvd
                      "use the Analytic volume instead")
 
 # Share of the progress bar taken by the plan (the library's sampling pass); the blocks take the rest.
-PLAN_SHARE = 0.4
+# Measured in Blender 3.4 (the earth preset, voxel size automatic, 2 cores, 2026-12-07): the plan
+# ends at 28 % of the time of a Camera View export (0.25 of 0.90 s, 8.5 M voxels) and at 21 % of a
+# Whole Planet one (1.56 of 7.28 s, 16.2 M voxels); the blocks' progress is then close to linear.
+PLAN_SHARE = 0.25
 # Largest dense block requested at once (floats): 16 MiB.
 BLOCK_FLOATS = 4 << 20
 
