@@ -637,27 +637,30 @@ void run_report(const Options& opt, const Reporter& rep) {
     // ---- Markdown --------------------------------------------------------------------------
     std::ostringstream md;
     // The sweep's grids that the accuracy images evaluate per pixel (sky.hpp: a grid only when it
-    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them). The
-    // observers are below every knot (≤ 10 km); the ground one has one sky piece, those at 5
-    // and 10 km two (split at the horizontal: sky_grid.hpp Horizon::kinks), so more rows.
+    // has fewer nodes than the image's rays; sun rotation 0°, so the mirror halves them), for
+    // each observer altitude of the pooled conditions: its horizon's pieces (the knots below it,
+    // the horizontal from 60 m up: sky_grid.hpp Horizon::kinks) set the grid's rows.
     const double R = base.planet.radius_m, top = base.planet.atmosphere_top_m - base.planet.radius_m;
-    const Horizon ground_hz = Horizon::of(R, top, 0.0, profile_knots_m(base));
-    const Horizon raised_hz = Horizon::of(R, top, 5e3, profile_knots_m(base));
-    const auto per_pixel = [&](const Horizon& hz) {  // "40, 64"
+    const std::vector<double> knots = profile_knots_m(base);
+    const auto per_pixel = [&](double altitude_m) {  // "40, 64"
+        const Horizon hz = Horizon::of(R, top, altitude_m, knots);
         std::string list;
         for (int g : grids)
             if (SkyGridLayout::image(g).rays(hz, false) >= double(W) * H / 2)
                 list += (list.empty() ? "" : ", ") + std::to_string(g);
-        return list;
+        return list.empty() ? std::string("none") : list;
     };
-    const std::string ground_list = per_pixel(ground_hz), raised_list = per_pixel(raised_hz);
-    const bool one = ground_list.find(',') == std::string::npos;
-    std::string per_pixel_grids = ground_list.empty() ? std::string("every grid of the sweep is used")
-                                  : one               ? "grid " + ground_list + " is evaluated per pixel"
-                                                      : "grids " + ground_list + " are evaluated per pixel";
-    if (raised_list != ground_list)
-        per_pixel_grids += " on the ground, " + (raised_list.empty() ? std::string("none") : raised_list) +
-                           " from 5 and 10 km (the horizontal splits their sky: more rows)";
+    std::vector<std::pair<std::string, std::string>> by_list;  // (list, "0 km, 5 km")
+    for (const Condition& c : conditions) {
+        if (!c.in_check) continue;
+        const std::string list = per_pixel(c.altitude_m), where = std::to_string(std::lround(c.altitude_m / 1e3)) + " km";
+        auto it = std::find_if(by_list.begin(), by_list.end(), [&](const auto& p) { return p.first == list; });
+        if (it == by_list.end()) by_list.emplace_back(list, where);
+        else if (it->second.find(where) == std::string::npos) it->second += ", " + where;
+    }
+    std::string per_pixel_grids = "the grids evaluated per pixel are";
+    for (std::size_t k = 0; k < by_list.size(); ++k)
+        per_pixel_grids += (k ? "; " : " ") + by_list[k].first + (by_list.size() > 1 ? " from " + by_list[k].second : "");
     md << "Measured by `airmass report sky` (preset `" << opt.preset << "`, " << W << "×" << H
        << " full-sphere images, sun rotation 0°, no sun disc) against a converged reference computed in the same run: "
           "exact Chapman, "
@@ -688,11 +691,9 @@ void run_report(const Options& opt, const Reporter& rep) {
         const bool pass = r.check_all.p95 <= 0.01;
         all_pass = all_pass && pass;
         // A grid is used when it has fewer nodes than the image has rays (sky.hpp SkySettings::grid).
-        const long ground_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(ground_hz, false));
-        const long raised_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(raised_hz, false));
+        const long ground_nodes = long(SkyGridLayout::image(kSkyDefaultGrid).rays(Horizon::of(R, top, 0.0, knots), false));
         check << "* grid " << r.cfg.grid
-              << (r.cfg.grid == 0 ? " (images of ≤ " + std::to_string(ground_nodes) + " rays on the ground, " +
-                                        std::to_string(raised_nodes) + " at 5 and 10 km)"
+              << (r.cfg.grid == 0 ? " (images of ≤ " + std::to_string(ground_nodes) + " rays on the ground, more above it)"
                                   : std::string(" (larger images)"))
               << ": 95th percentile **" << pct(r.check_above.p95) << "** above the horizon, **" << pct(r.check_all.p95)
               << "** over the full sphere; worst single condition " << pct(r.worst_p95_above) << " above the horizon; "

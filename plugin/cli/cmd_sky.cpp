@@ -62,6 +62,7 @@ struct SkyOptions {
     bool quiet = false;
     bool no_multiple = false;
     int ms_grid = kSkyDefaultMultipleGrid;
+    bool no_refine = false;
     MsCliOptions ms;
     // sequences
     std::string time_range, fps, frames, frames_csv;
@@ -369,7 +370,7 @@ void add_sky_command(CLI::App& app) {
         ->check(CLI::IsMember({"full", "upper"}))
         ->capture_default_str();
     cmd->add_option("--grid", o->grid,
-                    "Sky grid: G azimuth intervals over 0-180 deg and G + 1 rows above and below the horizon (more where rays graze a profile's knots), pixels "
+                    "Sky grid: G azimuth intervals over 0-180 deg and G + 1 rows above and below the horizon (more where rays graze a profile's knots, and at the horizontal from 60 m up), pixels "
                     "interpolated, in [4, 16384] (0: every pixel, -1: auto = 40); every pixel when the grid has as many "
                     "nodes as the image has rays to evaluate")
         ->check(int_in(-1, kSkyMaxGrid))  // and not 1-3: validate(SkySettings)
@@ -382,6 +383,10 @@ void add_sky_command(CLI::App& app) {
                     "[2, 16384] (0: integrated along every ray, as when the grid has as many rays as the image evaluates)")
         ->check(int_in(0, kSkyMaxGrid))
         ->capture_default_str();
+    cmd->add_flag("--no-refine", o->no_refine,
+                  "Interpolate every pixel from the grids, also in their rough cells (where the light changes "
+                  "faster than a cell: from orbit at twilight), which are otherwise evaluated pixel by pixel: "
+                  "faster there, less accurate (docs/sky.md Rough cells)");
     cmd->add_option("--exr-compression", o->exr_compression,
                     "none, zip or piz (all lossless; none writes fastest: docs/sky.md)")
         ->check(CLI::IsMember({"none", "zip", "piz"}))
@@ -426,6 +431,7 @@ void add_sky_command(CLI::App& app) {
         if (o->ms_grid == 1)
             throw CliError("sky: --ms-grid 1: must be 0 (every ray) or in [2, " + std::to_string(kSkyMaxGrid) + "]");
         settings.multiple_grid = o->ms_grid;
+        settings.refine_rough_cells = !o->no_refine;
         apply_ms_options("sky", o->ms, settings.multiple, kSkyMaxMultipleSamples);
         try {
             validate(settings);

@@ -97,8 +97,8 @@ struct SkySettings {
     // intervals, denser toward the sun; the zenith angle has two pieces split exactly at the
     // horizon (sky / ground, never interpolated across), each `grid` intervals, far denser
     // toward the horizon — and, for an observer above a profile's knot or above the
-    // atmosphere, the sky split further where rays graze the knots (sky_grid.hpp
-    // Horizon::kinks), each piece below a kink `grid`/2 + 1 rows. Each radiance column's single scattering is held over its
+    // atmosphere, the sky split further where rays graze the knots, and from 60 m up at the
+    // horizontal (sky_grid.hpp Horizon::kinks), each piece below a kink `grid`/2 + 1 rows. Each radiance column's single scattering is held over its
     // constituents' phase functions mixed by optical depth and multiplied back per pixel (the
     // aureole is not interpolated). 0: evaluate every
     // pixel. −1 (auto): the grid of kSkyDefaultGrid. A grid (auto or given) is used only when it has fewer nodes than
@@ -125,6 +125,13 @@ struct SkySettings {
     // observer and sun (Evaluator::ms_view), not of the evaluator or its tables, so it stays
     // here beside `grid` (a render or `eval` has none).
     int multiple_grid = kSkyDefaultMultipleGrid;
+    // Where either grid is rough — its cubic cannot follow the light across a cell
+    // (SkyGrid::rough_cells: a shadow's edge across the limb seen from orbit, a band next to
+    // the horizontal at twilight) — evaluate the pixels of those cells along their own rays
+    // (the multiple scattering too where the view's cell is rough) instead of interpolating.
+    // On by default; it costs nothing where the grids are smooth (the ground at day) and
+    // 1.7-4x from orbit at twilight (docs/sky.md "Rough cells"). false: interpolate every pixel.
+    bool refine_rough_cells = true;
 };
 
 inline constexpr int kSkyDefaultGrid = 40;

@@ -31,13 +31,17 @@
 // toward the sun (c' = 0.5 or 1) move the worst pixel to the side opposite it, no better.
 // The kinks: `earth` 1024 × 512 from 50 km, sun 10°, against every pixel, the image grid's
 // worst pixel was 51 % off (the ozone tent's top, 40 km, seen edge-on), 3.5 % split there;
-// from 400 km 19 % at the limb, 6.9 % (docs/sky.md). The image holds its single scattering over each column's phase function
-// The horizontal: `earth` 1024 × 512 from 20 km, sun −4°, 12.6 % → 6.8 % (a band of rows
-// next to it, the light of rays that skim the observer's layer for hundreds of kilometres
-// through sunlight grazing the ground); from 300 m, sun 10°, 0.63 → 0.18 %.
+// from 400 km 19 % at the limb, 6.9 % (docs/sky.md). The horizontal: `earth` 1024 × 512 from
+// 20 km, sun −4°, 12.6 % → 6.8 % (a band of rows next to it, the light of rays that skim the
+// observer's layer for hundreds of kilometres through sunlight grazing the ground); from
+// 300 m, sun 10°, 0.63 → 0.18 %. An image of the sky only (an upper hemisphere) is not split:
+// its one piece ends at the horizontal when that is a kink (crowded toward it), else at the
+// horizon. The image holds its single scattering over each column's phase function
 // (sky.cpp), so what it interpolates has no aureole; what is left sharp is the zenith angle
 // next to the horizon — hence its rows: twice as many, their spacing there 0.038 of an even
-// one's (docs/sky.md measures both).
+// one's (docs/sky.md measures both). Where neither rows nor columns follow the light (a
+// shadow's edge across the limb seen from orbit), rough_cells finds the cells and the image
+// evaluates their pixels (sky.cpp).
 //
 // Interpolation is Catmull–Rom (cubic, C¹) in both grid coordinates: columns mirror at ψ = 0
 // and π (the sky's own symmetry: exact at ψ = 0; at π exact for even columns and, with a
@@ -96,7 +100,7 @@ struct Horizon {
         std::vector<double> theta;
         for (const double a : knots_m)
             if (a > 0.0 && a < h && a < top) theta.push_back(std::numbers::pi - std::asin(std::min((R + a) / (R + h), 1.0)));
-        if (h < top && hz.theta_horizon - std::numbers::pi / 2 >= kMinHorizontalDip) theta.push_back(std::numbers::pi / 2);
+        if (h <= top && hz.theta_horizon - std::numbers::pi / 2 >= kMinHorizontalDip) theta.push_back(std::numbers::pi / 2);
         std::sort(theta.begin(), theta.end());
         for (const double t : theta)
             if (t >= std::numbers::pi / 2 && t > hz.theta_space + kMinGap && t < hz.theta_horizon - kMinGap &&
@@ -122,6 +126,10 @@ struct SkyGridLayout {
     // an image of the sky only, which reads no row below the horizontal), then the zenith or
     // the limb (θ_space).
     static std::vector<double> sky_edges(const Horizon& hz, bool sky_only) {
+        if (sky_only) {  // one piece, down to the horizontal where that is a kink, else the horizon
+            const bool horizontal = !hz.kinks.empty() && hz.kinks.front() == std::numbers::pi / 2;
+            return {horizontal ? std::numbers::pi / 2 : hz.theta_horizon, hz.theta_space};
+        }
         std::vector<double> edges{hz.theta_horizon};
         if (!sky_only) edges.insert(edges.end(), hz.kinks.rbegin(), hz.kinks.rend());
         edges.push_back(hz.theta_space);
@@ -365,6 +373,70 @@ struct SkyGrid {
             out[ch] = w[0] * line[std::size_t(cols[0]) * channels + ch] + w[1] * line[std::size_t(cols[1]) * channels + ch] +
                       w[2] * line[std::size_t(cols[2]) * channels + ch] + w[3] * line[std::size_t(cols[3]) * channels + ch];
     }
+    // Cells the cubic cannot follow: cell (r, c) — rows r and r + 1 of one piece, columns c and
+    // c + 1 — is rough when, for some channel, the two quadratic estimates of its middle (from
+    // nodes −1, 0, 1 and from 0, 1, 2, along the rows or along the columns) disagree by more
+    // than `tolerance` of the channel's largest corner value plus `floor` of its largest value
+    // anywhere on the grid: their difference is the stencil's third difference over 8, small
+    // where the light is smooth (the cubic's own error is of the fourth order) and of the size
+    // of the jump where it is not — a shadow's edge crossing the limb seen from orbit, which no
+    // row or column of the grid follows. Ghost nodes as the stencils take them (a piece's end
+    // extrapolated linearly; columns mirrored). Dilated by a cell each way (a cubic reaches one
+    // cell beyond its own). (rows() − 1) × intervals flags; a row pair across a piece's end is
+    // never rough (never interpolated across).
+    std::vector<unsigned char> rough_cells(double tolerance, double floor) const {
+        const int R = rows(), C = intervals;
+        std::vector<unsigned char> rough(std::size_t(std::max(R - 1, 0)) * std::size_t(C), 0);
+        if (R < 2 || C < 1) return rough;
+        std::vector<double> largest(std::size_t(channels), 0.0);
+        for (std::size_t i = 0; i < values.size(); ++i)
+            largest[i % std::size_t(channels)] = std::max(largest[i % std::size_t(channels)], std::abs(values[i]));
+        const auto column = [&](int j) {  // mirrored at ψ = 0 and π, as column_stencil
+            if (j < 0) j = -j;
+            if (j > C) j = 2 * C - j;
+            return std::clamp(j, 0, C);
+        };
+        std::vector<unsigned char> raw(rough.size(), 0);
+        for (int r = 0; r + 1 < R; ++r) {
+            const Piece& p = piece_of_row(r);
+            if (r + 1 > p.last()) continue;  // across a piece's end
+            const int lo = p.first, hi = p.last();
+            for (int c = 0; c < C; ++c) {
+                bool is_rough = false;
+                for (int ch = 0; ch < channels && !is_rough; ++ch) {
+                    const auto v = [&](int row, int col) {  // a row beyond the piece: extrapolated
+                        if (row < lo) return 2.0 * at(lo, column(col))[ch] - at(lo + 1, column(col))[ch];
+                        if (row > hi) return 2.0 * at(hi, column(col))[ch] - at(hi - 1, column(col))[ch];
+                        return at(row, column(col))[ch];
+                    };
+                    const double scale =
+                        tolerance * std::max({std::abs(v(r, c)), std::abs(v(r, c + 1)), std::abs(v(r + 1, c)),
+                                              std::abs(v(r + 1, c + 1))}) +
+                        floor * largest[std::size_t(ch)];
+                    for (const int rr : {r, r + 1}) {  // along the columns, on both rows
+                        const double d3 = v(rr, c + 2) - 3.0 * v(rr, c + 1) + 3.0 * v(rr, c) - v(rr, c - 1);
+                        is_rough = is_rough || std::abs(d3) / 8.0 > scale;
+                    }
+                    for (const int cc : {c, c + 1}) {  // along the rows, on both columns
+                        const double d3 = v(r + 2, cc) - 3.0 * v(r + 1, cc) + 3.0 * v(r, cc) - v(r - 1, cc);
+                        is_rough = is_rough || std::abs(d3) / 8.0 > scale;
+                    }
+                }
+                raw[std::size_t(r) * C + c] = is_rough;
+            }
+        }
+        for (int r = 0; r + 1 < R; ++r)
+            for (int c = 0; c < C; ++c) {
+                if (!raw[std::size_t(r) * C + c]) continue;
+                for (int dr = -1; dr <= 1; ++dr)
+                    for (int dc = -1; dc <= 1; ++dc) {
+                        const int rr = r + dr, cc = c + dc;
+                        if (rr >= 0 && rr + 1 < R && cc >= 0 && cc < C) rough[std::size_t(rr) * C + cc] = 1;
+                    }
+            }
+        return rough;
+    }
+
     // The interpolated values of a cell (out.size() == channels).
     void interpolate(const Cell& c, std::span<double> out) const {
         int rr[4], cc[4];

@@ -6,6 +6,7 @@
 #include "airmass/parallel.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -419,6 +420,12 @@ bool short_ground_ray(const Atmosphere& atm, double h0, double L, double sun_z) 
 // phase function, the other constituents' over theirs, the multiple scattering (each over
 // 1 − T̄), and the ground's light (over T̄).
 constexpr int kGridChannels = 12;
+// SkyGrid::rough_cells' thresholds, for the image's grid and the multiple-scattering view: a cell
+// is rough where the quadratic estimates of its middle disagree by more than 5 % of its corners'
+// value plus 1e-3 of the grid's largest (docs/sky.md "Rough cells": 2 % doubled the pixels
+// evaluated from orbit for max 4.5 → 0.9 %; 10 % missed the band from 50 km at twilight).
+constexpr double kRoughTolerance = 0.05;
+constexpr double kRoughFloor = 1e-3;
 
 // The image grid holds each radiance column's single scattering (the evaluator's
 // Rayleigh-like and other constituents) over a phase function of that column, which each
@@ -652,6 +659,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         struct ColumnStencil {
             int cols[4];
             double w[4];
+            int c0;  // the grid column the pixel lies after (its cell)
         };
         std::vector<ColumnStencil> stencils(static_cast<std::size_t>(W));
         std::vector<double> column_sun(static_cast<std::size_t>(W));  // sin θ · this, + cos θ s_z: ν of a pixel
@@ -662,6 +670,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             column_sun[std::size_t(x)] = std::cos(phi) * ctx.sun.x + std::sin(phi) * ctx.sun.y;
             grid.column(phi, c0, wc);
             grid.column_stencil(c0, wc, stencils[std::size_t(x)].cols, stencils[std::size_t(x)].w);
+            stencils[std::size_t(x)].c0 = c0;
         }
         // With the mirror (key ≥ 0) one pixel of each mirrored pair is interpolated and copied to
         // the other, as the per-pixel render does: the image is exactly symmetric, and the
@@ -698,6 +707,80 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                         }
                     }
                     report(1);
+                }
+            });
+        }
+        if (cancelled()) throw Cancelled("sky: cancelled");
+        // ---- the pixels of the cells the cubics cannot follow, evaluated ----
+        // (SkyGrid::rough_cells: a shadow's edge across the limb seen from orbit, a band next
+        // to the horizontal at twilight.) A pixel in a rough cell of the image's grid is
+        // evaluated along its own ray, its multiple scattering interpolated from the view; one
+        // in a rough cell of the view's grid has that integrated along its ray too.
+        const bool refine = settings.refine_rough_cells;
+        const std::vector<unsigned char> rough =
+            refine ? grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>(
+                                                                           std::size_t(std::max(grid_rows - 1, 0)) * grid.intervals, 0);
+        const std::vector<unsigned char> view_rough =
+            view ? (refine ? view->grid.rough_cells(kRoughTolerance, kRoughFloor)
+                           : std::vector<unsigned char>(std::size_t(std::max(view->grid.rows() - 1, 0)) *
+                                                            view->grid.intervals,
+                                                        0))
+                 : std::vector<unsigned char>{};
+        std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
+        {
+            const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
+                std::vector<unsigned char> any(flags.size() / std::size_t(std::max(intervals, 1)) + 1, 0);
+                for (std::size_t i = 0; i < flags.size(); ++i) any[i / std::size_t(intervals)] |= flags[i];
+                return any;
+            };
+            const std::vector<unsigned char> row_has = rows_with(rough, grid.intervals);
+            const std::vector<unsigned char> view_row_has =
+                view ? rows_with(view_rough, view->grid.intervals) : std::vector<unsigned char>{};
+            std::vector<int> view_c0(view ? std::size_t(W) : 0);
+            for (std::size_t x = 0; x < view_c0.size(); ++x) {
+                double wc;
+                view->grid.column(kPi - kTwoPi * (double(x) + 0.5) / W, view_c0[x], wc);
+            }
+            // the row of a cell that holds θ, or −1 (none, or not rough anywhere)
+            const auto rough_row = [](const SkyGrid& g, const std::vector<unsigned char>& has, double theta) {
+                SkyGrid::Cell cell;
+                if (!g.cell(theta, g.sun_phi, cell) || cell.r1 == cell.r0 || !has[std::size_t(cell.r0)]) return -1;
+                return cell.r0;
+            };
+            for (int y = 0; y < image_rows; ++y) {
+                const double theta = kPi * (y + 0.5) / H;
+                const int r = rough_row(grid, row_has, theta);
+                const int rv = view ? rough_row(view->grid, view_row_has, theta) : -1;
+                if (r < 0 && rv < 0) continue;
+                for (const int x : columns) {
+                    const bool per_ray =
+                        rv >= 0 && view_rough[std::size_t(rv) * view->grid.intervals + view_c0[std::size_t(x)]];
+                    if (per_ray || (r >= 0 && rough[std::size_t(r) * grid.intervals + stencils[std::size_t(x)].c0]))
+                        exact[per_ray].emplace_back(x, y);
+                }
+            }
+        }
+        for (const bool per_ray : {false, true}) {
+            const std::vector<std::pair<int, int>>& list = exact[per_ray];
+            if (list.empty()) continue;
+            constexpr std::size_t kBatch = 32;
+            parallel_for(0, list.size(), kBatch, threads, [&](std::size_t b, std::size_t e, int worker) {
+                Scratch& s = scratch[std::size_t(worker)];
+                for (std::size_t k0 = b; k0 < e; k0 += kBatch) {
+                    if (cancelled()) return;
+                    const std::size_t n = std::min(kBatch, e - k0);
+                    s.resize(n, nw);
+                    for (std::size_t k = 0; k < n; ++k)
+                        s.dirs[k] = Vec3<double>(equirect_pixel_direction(list[k0 + k].first, list[k0 + k].second, W, H));
+                    ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun),
+                                           std::span<const Vec3<double>>(s.dirs.data(), n), s.out(n, nw),
+                                           view && !per_ray ? &*view : nullptr);
+                    for (std::size_t k = 0; k < n; ++k) {
+                        const auto [x, y] = list[k0 + k];
+                        float* px = image.at(x, y);
+                        store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
+                        if (key >= 0) std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
+                    }
                 }
             });
         }
@@ -864,6 +947,7 @@ std::string sky_settings_to_json(const Scene& scene, const SkySettings& settings
     j["ground"] = settings.view.ground;
     j["grid"] = settings.grid;
     j["grid_used"] = effective_sky_grid(scene, settings);
+    j["refine_rough_cells"] = settings.refine_rough_cells;
     j["multiple_scattering"] = settings.multiple.enabled;
     if (settings.multiple.enabled) {
         const MsSettings& m = settings.multiple.tables;
