@@ -79,6 +79,29 @@ SkySettings small(int w = 64, int h = 32) {
     return s;
 }
 
+// The same sky evaluated at every pixel (grid 0) and through the default grid, which it must
+// use (an image with more pixels than the grid has nodes).
+struct GridAndExact {
+    FloatImage exact, grid;
+};
+GridAndExact grid_and_exact(const Scene& scene, SkySettings s) {
+    s.grid = 0;
+    GridAndExact r{render_sky(scene, s), {}};
+    s.grid = -1;
+    EXPECT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
+    r.grid = render_sky(scene, s);
+    return r;
+}
+
+double luminance(const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+// A pixel's error against the reference b: max over R, G, B of |a − b| / max(b, floor).
+double pixel_error(const float* a, const float* b, double floor) {
+    double e = 0.0;
+    for (int c = 0; c < 3; ++c) e = std::max(e, std::abs(double(a[c]) - b[c]) / std::max(double(b[c]), floor));
+    return e;
+}
+
 // ---- mapping ---------------------------------------------------------------------------
 
 TEST(SkyMapping, CyclesFormulaAtTheAxes) {
@@ -396,25 +419,17 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
         // 512 × 256: more pixels than the default grid's 41 × 41 × 2 nodes, so the grid is used.
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        s.grid = 0;
-        const FloatImage exact = render_sky(scene, s);
-        s.grid = -1;
-        ASSERT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
-        const FloatImage grid = render_sky(scene, s);
+        const auto [exact, grid] = grid_and_exact(scene, s);
         std::vector<double> errs;
         double worst = 0;
         for (int y = 0; y < s.height; ++y)
             for (int x = 0; x < s.width; ++x) {
                 const float *a = grid.at(x, y), *b = exact.at(x, y);
-                const double yb = 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2];
-                double e = 0;
-                for (int c = 0; c < 3; ++c) {
-                    if (yb == 0.0) {
-                        EXPECT_EQ(a[c], 0.0f) << "alt " << alt << " pixel " << x << "," << y;  // space stays black
-                    } else {
-                        e = std::max(e, std::abs(double(a[c]) - b[c]) / std::max(double(b[c]), yb));
-                    }
+                const double yb = luminance(b);
+                if (yb == 0.0) {  // space stays black
+                    for (int c = 0; c < 3; ++c) EXPECT_EQ(a[c], 0.0f) << "alt " << alt << " pixel " << x << "," << y;
                 }
+                const double e = yb == 0.0 ? 0.0 : pixel_error(a, b, yb);
                 errs.push_back(e);
                 worst = std::max(worst, e);
             }
@@ -447,12 +462,7 @@ TEST(SkyGrid, ElevatedObserversAtTwilightAreSplitAtTheHorizontal) {
         scene.observer.altitude_m = alt;
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        s.grid = 0;
-        const FloatImage exact = render_sky(scene, s);
-        s.grid = -1;
-        ASSERT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
-        const FloatImage grid = render_sky(scene, s);
-        const auto luminance = [](const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; };
+        const auto [exact, grid] = grid_and_exact(scene, s);
         double brightest = 0.0;
         for (int y = 0; y < s.height / 2; ++y)
             for (int x = 0; x < s.width; ++x) brightest = std::max(brightest, luminance(exact.at(x, y)));
@@ -462,10 +472,7 @@ TEST(SkyGrid, ElevatedObserversAtTwilightAreSplitAtTheHorizontal) {
             const double theta = std::numbers::pi * (y + 0.5) / s.height;
             if (std::abs(theta - std::numbers::pi / 2) > 1.5 * std::numbers::pi / 180.0) continue;
             for (int x = 0; x < s.width; ++x) {
-                const float *a = grid.at(x, y), *b = exact.at(x, y);
-                const double floor = std::max(luminance(b), 1e-3 * brightest);
-                double e = 0;
-                for (int c = 0; c < 3; ++c) e = std::max(e, std::abs(double(a[c]) - b[c]) / std::max(double(b[c]), floor));
+                const double e = pixel_error(grid.at(x, y), exact.at(x, y), std::max(luminance(exact.at(x, y)), 1e-3 * brightest));
                 errs.push_back(e);
                 worst = std::max(worst, e);
             }
@@ -492,11 +499,8 @@ TEST(SkyGrid, ElevatedObserversAtTwilightAreSplitAtTheHorizontal) {
     double worst = 0.0;
     for (int y = 0; y < s.height / 2; ++y) {
         if (std::numbers::pi / 2 - std::numbers::pi * (y + 0.5) / s.height > 1.5 * std::numbers::pi / 180.0) continue;
-        for (int x = 0; x < s.width; ++x) {
-            const float *a = upper.at(x, y), *b = exact.at(x, y);
-            const double yb = 0.2126 * b[0] + 0.7152 * b[1] + 0.0722 * b[2];
-            for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(a[c]) - b[c]) / std::max(double(b[c]), yb));
-        }
+        for (int x = 0; x < s.width; ++x)
+            worst = std::max(worst, pixel_error(upper.at(x, y), exact.at(x, y), luminance(exact.at(x, y))));
     }
     // Measured 2026-12-07 (rough cells off, to see the rows alone): 1.42 %; the piece down to
     // the horizon, as before, 7.87 %.
@@ -517,14 +521,9 @@ TEST(SkyGrid, RoughCellsFromOrbitAtTwilightAreEvaluatedPixelByPixel) {
         scene.sun.elevation_deg = sun;
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        s.grid = 0;
-        const FloatImage exact = render_sky(scene, s);
-        s.grid = -1;
-        ASSERT_EQ(effective_sky_grid(scene, s), kSkyDefaultGrid);
-        const FloatImage refined = render_sky(scene, s);
+        const auto [exact, refined] = grid_and_exact(scene, s);
         s.refine_rough_cells = false;
         const FloatImage interpolated = render_sky(scene, s);
-        const auto luminance = [](const float* p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; };
         double brightest = 0.0;
         for (int y = 0; y < s.height; ++y)
             for (int x = 0; x < s.width; ++x) brightest = std::max(brightest, luminance(exact.at(x, y)));
@@ -533,11 +532,8 @@ TEST(SkyGrid, RoughCellsFromOrbitAtTwilightAreEvaluatedPixelByPixel) {
             for (int y = 0; y < s.height; ++y)
                 for (int x = 0; x < s.width; ++x) {
                     const float *a = img.at(x, y), *b = exact.at(x, y), *c = interpolated.at(x, y);
-                    const double floor = std::max(luminance(b), 1e-2 * brightest);
-                    for (int ch = 0; ch < 3; ++ch) {
-                        w = std::max(w, std::abs(double(a[ch]) - b[ch]) / std::max(double(b[ch]), floor));
-                        changed += ch == 0 && (a[0] != c[0] || a[1] != c[1] || a[2] != c[2]);
-                    }
+                    w = std::max(w, pixel_error(a, b, std::max(luminance(b), 1e-2 * brightest)));
+                    changed += a[0] != c[0] || a[1] != c[1] || a[2] != c[2];
                 }
             return w;
         };
