@@ -419,7 +419,8 @@ TEST(SkyGrid, InterpolatesWithinAPercentAndNeverAcrossTheHorizon) {
         // 512 × 256: more pixels than the default grid's 41 × 41 × 2 nodes, so the grid is used.
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        const auto [exact, grid] = grid_and_exact(scene, s);
+        const GridAndExact images = grid_and_exact(scene, s);
+        const FloatImage &exact = images.exact, &grid = images.grid;
         std::vector<double> errs;
         double worst = 0;
         for (int y = 0; y < s.height; ++y)
@@ -462,7 +463,8 @@ TEST(SkyGrid, ElevatedObserversAtTwilightAreSplitAtTheHorizontal) {
         scene.observer.altitude_m = alt;
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        const auto [exact, grid] = grid_and_exact(scene, s);
+        const GridAndExact images = grid_and_exact(scene, s);
+        const FloatImage &exact = images.exact, &grid = images.grid;
         double brightest = 0.0;
         for (int y = 0; y < s.height / 2; ++y)
             for (int x = 0; x < s.width; ++x) brightest = std::max(brightest, luminance(exact.at(x, y)));
@@ -521,7 +523,8 @@ TEST(SkyGrid, RoughCellsFromOrbitAtTwilightAreEvaluatedPixelByPixel) {
         scene.sun.elevation_deg = sun;
         SkySettings s = small(512, 256);
         s.view.sun_disc = false;
-        const auto [exact, refined] = grid_and_exact(scene, s);
+        const GridAndExact images = grid_and_exact(scene, s);  // (clang 14 captures no structured binding)
+        const FloatImage &exact = images.exact, &refined = images.grid;
         s.refine_rough_cells = false;
         const FloatImage interpolated = render_sky(scene, s);
         double brightest = 0.0;

@@ -6,7 +6,6 @@
 #include "airmass/parallel.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
