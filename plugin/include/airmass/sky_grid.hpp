@@ -386,41 +386,78 @@ struct SkyGrid {
     // never rough (never interpolated across).
     std::vector<unsigned char> rough_cells(double tolerance, double floor) const {
         const int R = rows(), C = intervals;
+        const std::size_t nc = std::size_t(channels), stride = std::size_t(columns()) * nc;
         std::vector<unsigned char> rough(std::size_t(std::max(R - 1, 0)) * std::size_t(C), 0);
         if (R < 2 || C < 1) return rough;
-        std::vector<double> largest(std::size_t(channels), 0.0);
-        for (std::size_t i = 0; i < values.size(); ++i)
-            largest[i % std::size_t(channels)] = std::max(largest[i % std::size_t(channels)], std::abs(values[i]));
+        std::vector<double> floor_of(nc, 0.0);  // floor × the channel's largest value
+        for (std::size_t i = 0; i < values.size(); ++i) floor_of[i % nc] = std::max(floor_of[i % nc], std::abs(values[i]));
+        for (double& f : floor_of) f *= floor;
         const auto column = [&](int j) {  // mirrored at ψ = 0 and π, as column_stencil
             if (j < 0) j = -j;
             if (j > C) j = 2 * C - j;
-            return std::clamp(j, 0, C);
+            return std::size_t(std::clamp(j, 0, C));
         };
+        // Along the columns, every row: d3c[k][c][ch] for the cells' columns c ∈ [0, C).
+        std::vector<double> d3c(std::size_t(R) * std::size_t(C) * nc);
+        for (int k = 0; k < R; ++k) {
+            const double* row = values.data() + std::size_t(k) * stride;
+            double* out = d3c.data() + std::size_t(k) * std::size_t(C) * nc;
+            for (int c = 0; c < C; ++c) {
+                const double *a = row + column(c - 1) * nc, *b = row + column(c) * nc, *d = row + column(c + 1) * nc,
+                             *e = row + column(c + 2) * nc;
+                for (std::size_t ch = 0; ch < nc; ++ch)
+                    out[std::size_t(c) * nc + ch] = e[ch] - 3.0 * d[ch] + 3.0 * b[ch] - a[ch];
+            }
+        }
+        // Along the rows, for each row pair (r, r + 1) of a piece: nodes r − 1 … r + 2, a node
+        // beyond the piece extrapolated linearly (v(lo − 1) = 2 v(lo) − v(lo + 1)), written as
+        // weights of the piece's own rows.
+        std::vector<double> d3r(stride);
         std::vector<unsigned char> raw(rough.size(), 0);
         for (int r = 0; r + 1 < R; ++r) {
             const Piece& p = piece_of_row(r);
             if (r + 1 > p.last()) continue;  // across a piece's end
             const int lo = p.first, hi = p.last();
+            double weight[4] = {0.0, 0.0, 0.0, 0.0};  // of rows r − 1 … r + 2 (clamped into the piece)
+            int at_row[4] = {r - 1, r, r + 1, r + 2};
+            const double d3[4] = {-1.0, 3.0, -3.0, 1.0};
+            for (int t = 0; t < 4; ++t) {
+                const int k = at_row[t];
+                if (k < lo) {  // 2 v(lo) − v(lo + 1)
+                    weight[1] += 2.0 * d3[t];
+                    weight[2] -= d3[t];
+                } else if (k > hi) {  // 2 v(hi) − v(hi − 1)
+                    weight[2] += 2.0 * d3[t];
+                    weight[1] -= d3[t];
+                } else {
+                    weight[t] += d3[t];
+                }
+            }
+            // rows r and r + 1 always lie in the piece; r − 1 and r + 2 when weighted
+            const double* rw[4] = {nullptr, values.data() + std::size_t(r) * stride,
+                                   values.data() + std::size_t(r + 1) * stride, nullptr};
+            if (r - 1 >= lo) rw[0] = values.data() + std::size_t(r - 1) * stride;
+            if (r + 2 <= hi) rw[3] = values.data() + std::size_t(r + 2) * stride;
+            std::fill(d3r.begin(), d3r.end(), 0.0);
+            for (int t = 0; t < 4; ++t)
+                if (weight[t] != 0.0 && rw[t])
+                    for (std::size_t i = 0; i < stride; ++i) d3r[i] += weight[t] * rw[t][i];
+            const double* c0 = d3c.data() + std::size_t(r) * std::size_t(C) * nc;
+            const double* c1 = c0 + std::size_t(C) * nc;
             for (int c = 0; c < C; ++c) {
+                const double *v00 = rw[1] + std::size_t(c) * nc, *v01 = v00 + nc, *v10 = rw[2] + std::size_t(c) * nc,
+                             *v11 = v10 + nc;
+                const double *r0 = d3r.data() + std::size_t(c) * nc, *r1 = r0 + nc;
+                const double *a0 = c0 + std::size_t(c) * nc, *a1 = c1 + std::size_t(c) * nc;
                 bool is_rough = false;
-                for (int ch = 0; ch < channels && !is_rough; ++ch) {
-                    const auto v = [&](int row, int col) {  // a row beyond the piece: extrapolated
-                        if (row < lo) return 2.0 * at(lo, column(col))[ch] - at(lo + 1, column(col))[ch];
-                        if (row > hi) return 2.0 * at(hi, column(col))[ch] - at(hi - 1, column(col))[ch];
-                        return at(row, column(col))[ch];
-                    };
-                    const double scale =
-                        tolerance * std::max({std::abs(v(r, c)), std::abs(v(r, c + 1)), std::abs(v(r + 1, c)),
-                                              std::abs(v(r + 1, c + 1))}) +
-                        floor * largest[std::size_t(ch)];
-                    for (const int rr : {r, r + 1}) {  // along the columns, on both rows
-                        const double d3 = v(rr, c + 2) - 3.0 * v(rr, c + 1) + 3.0 * v(rr, c) - v(rr, c - 1);
-                        is_rough = is_rough || std::abs(d3) / 8.0 > scale;
-                    }
-                    for (const int cc : {c, c + 1}) {  // along the rows, on both columns
-                        const double d3 = v(r + 2, cc) - 3.0 * v(r + 1, cc) + 3.0 * v(r, cc) - v(r - 1, cc);
-                        is_rough = is_rough || std::abs(d3) / 8.0 > scale;
-                    }
+                for (std::size_t ch = 0; ch < nc; ++ch) {
+                    // the quadratic estimates disagree by |d3| / 8
+                    const double scale = 8.0 * (tolerance * std::max(std::max(std::abs(v00[ch]), std::abs(v01[ch])),
+                                                                     std::max(std::abs(v10[ch]), std::abs(v11[ch]))) +
+                                                floor_of[ch]);
+                    const double d = std::max(std::max(std::abs(a0[ch]), std::abs(a1[ch])),
+                                              std::max(std::abs(r0[ch]), std::abs(r1[ch])));
+                    is_rough |= d > scale;
                 }
                 raw[std::size_t(r) * C + c] = is_rough;
             }
