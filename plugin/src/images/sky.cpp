@@ -548,7 +548,22 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         ev.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
                     s.out(n, nw), view ? &*view : nullptr, {s.multiple_inscatter.data(), n * nw});
     };
-    auto evaluate = [&](Scratch& s, std::size_t n) { evaluate_with(ctx.evaluator, s, n); };
+    // Pixels (x, y) evaluated along their own rays, the multiple scattering from `ms` (nullptr:
+    // integrated along each ray), each stored and copied to its mirror column.
+    auto evaluate_pixels = [&](Scratch& s, std::span<const std::pair<int, int>> pixels, const MsView* ms) {
+        const std::size_t n = pixels.size();
+        s.resize(n, nw);
+        for (std::size_t k = 0; k < n; ++k)
+            s.dirs[k] = Vec3<double>(equirect_pixel_direction(pixels[k].first, pixels[k].second, W, H));
+        ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun), std::span<const Vec3<double>>(s.dirs.data(), n),
+                               s.out(n, nw), ms);
+        for (std::size_t k = 0; k < n; ++k) {
+            const int x = pixels[k].first, y = pixels[k].second;
+            float* px = image.at(x, y);
+            store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
+            if (key >= 0) std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
+        }
+    };
     // The grid's short ground rows (short_ground_ray) through an evaluator of
     // kShortRaySamples view samples: the same single scattering, about a third of the work
     // per ray (for an observer near the ground: half the grid's rays).
@@ -715,99 +730,73 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         // to the horizontal at twilight.) A pixel in a rough cell of the image's grid is
         // evaluated along its own ray, its multiple scattering interpolated from the view; one
         // in a rough cell of the view's grid has that integrated along its ray too.
-        const bool refine = settings.refine_rough_cells;
-        const std::vector<unsigned char> rough =
-            refine ? grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>(
-                                                                           std::size_t(std::max(grid_rows - 1, 0)) * grid.intervals, 0);
-        const std::vector<unsigned char> view_rough =
-            view ? (refine ? view->grid.rough_cells(kRoughTolerance, kRoughFloor)
-                           : std::vector<unsigned char>(std::size_t(std::max(view->grid.rows() - 1, 0)) *
-                                                            view->grid.intervals,
-                                                        0))
-                 : std::vector<unsigned char>{};
-        std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
-        {
-            const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
-                std::vector<unsigned char> any(flags.size() / std::size_t(std::max(intervals, 1)) + 1, 0);
-                for (std::size_t i = 0; i < flags.size(); ++i) any[i / std::size_t(intervals)] |= flags[i];
-                return any;
-            };
-            const std::vector<unsigned char> row_has = rows_with(rough, grid.intervals);
-            const std::vector<unsigned char> view_row_has =
-                view ? rows_with(view_rough, view->grid.intervals) : std::vector<unsigned char>{};
-            std::vector<int> view_c0(view ? std::size_t(W) : 0);
-            for (std::size_t x = 0; x < view_c0.size(); ++x) {
-                double wc;
-                view->grid.column(kPi - kTwoPi * (double(x) + 0.5) / W, view_c0[x], wc);
-            }
-            // the row of a cell that holds θ, or −1 (none, or not rough anywhere)
-            const auto rough_row = [](const SkyGrid& g, const std::vector<unsigned char>& has, double theta) {
-                SkyGrid::Cell cell;
-                if (!g.cell(theta, g.sun_phi, cell) || cell.r1 == cell.r0 || !has[std::size_t(cell.r0)]) return -1;
-                return cell.r0;
-            };
-            for (int y = 0; y < image_rows; ++y) {
-                const double theta = kPi * (y + 0.5) / H;
-                const int r = rough_row(grid, row_has, theta);
-                const int rv = view ? rough_row(view->grid, view_row_has, theta) : -1;
-                if (r < 0 && rv < 0) continue;
-                for (const int x : columns) {
-                    const bool per_ray =
-                        rv >= 0 && view_rough[std::size_t(rv) * view->grid.intervals + view_c0[std::size_t(x)]];
-                    if (per_ray || (r >= 0 && rough[std::size_t(r) * grid.intervals + stencils[std::size_t(x)].c0]))
-                        exact[per_ray].emplace_back(x, y);
+        if (settings.refine_rough_cells) {
+            const std::vector<unsigned char> rough = grid.rough_cells(kRoughTolerance, kRoughFloor);
+            const std::vector<unsigned char> view_rough =
+                view ? view->grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>{};
+            std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
+            {
+                const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
+                    std::vector<unsigned char> any(flags.size() / std::size_t(std::max(intervals, 1)) + 1, 0);
+                    for (std::size_t i = 0; i < flags.size(); ++i) any[i / std::size_t(intervals)] |= flags[i];
+                    return any;
+                };
+                const std::vector<unsigned char> row_has = rows_with(rough, grid.intervals);
+                const std::vector<unsigned char> view_row_has =
+                    view ? rows_with(view_rough, view->grid.intervals) : std::vector<unsigned char>{};
+                std::vector<int> view_c0(view ? std::size_t(W) : 0);
+                for (std::size_t x = 0; x < view_c0.size(); ++x) {
+                    double wc;
+                    view->grid.column(kPi - kTwoPi * (double(x) + 0.5) / W, view_c0[x], wc);
                 }
-            }
-        }
-        for (const bool per_ray : {false, true}) {
-            const std::vector<std::pair<int, int>>& list = exact[per_ray];
-            if (list.empty()) continue;
-            constexpr std::size_t kBatch = 32;
-            parallel_for(0, list.size(), kBatch, threads, [&](std::size_t b, std::size_t e, int worker) {
-                Scratch& s = scratch[std::size_t(worker)];
-                for (std::size_t k0 = b; k0 < e; k0 += kBatch) {
-                    if (cancelled()) return;
-                    const std::size_t n = std::min(kBatch, e - k0);
-                    s.resize(n, nw);
-                    for (std::size_t k = 0; k < n; ++k)
-                        s.dirs[k] = Vec3<double>(equirect_pixel_direction(list[k0 + k].first, list[k0 + k].second, W, H));
-                    ctx.evaluator.radiance(ctx.altitude_m, Vec3<double>(ctx.sun),
-                                           std::span<const Vec3<double>>(s.dirs.data(), n), s.out(n, nw),
-                                           view && !per_ray ? &*view : nullptr);
-                    for (std::size_t k = 0; k < n; ++k) {
-                        const auto [x, y] = list[k0 + k];
-                        float* px = image.at(x, y);
-                        store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
-                        if (key >= 0) std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
+                // the row of a cell that holds θ, or −1 (none, or not rough anywhere)
+                const auto rough_row = [](const SkyGrid& g, const std::vector<unsigned char>& has, double theta) {
+                    SkyGrid::Cell cell;
+                    if (!g.cell(theta, g.sun_phi, cell) || cell.r1 == cell.r0 || !has[std::size_t(cell.r0)]) return -1;
+                    return cell.r0;
+                };
+                for (int y = 0; y < image_rows; ++y) {
+                    const double theta = kPi * (y + 0.5) / H;
+                    const int r = rough_row(grid, row_has, theta);
+                    const int rv = view ? rough_row(view->grid, view_row_has, theta) : -1;
+                    if (r < 0 && rv < 0) continue;
+                    for (const int x : columns) {
+                        const bool per_ray =
+                            rv >= 0 && view_rough[std::size_t(rv) * view->grid.intervals + view_c0[std::size_t(x)]];
+                        if (per_ray || (r >= 0 && rough[std::size_t(r) * grid.intervals + stencils[std::size_t(x)].c0]))
+                            exact[per_ray].emplace_back(x, y);
                     }
                 }
-            });
+            }
+            for (const bool per_ray : {false, true}) {
+                const std::vector<std::pair<int, int>>& list = exact[per_ray];
+                if (list.empty()) continue;
+                constexpr std::size_t kBatch = 32;
+                parallel_for(0, list.size(), kBatch, threads, [&](std::size_t b, std::size_t e, int worker) {
+                    for (std::size_t k0 = b; k0 < e; k0 += kBatch) {
+                        if (cancelled()) return;
+                        evaluate_pixels(scratch[std::size_t(worker)],
+                                        std::span<const std::pair<int, int>>(list).subspan(k0, std::min(kBatch, e - k0)),
+                                        view && !per_ray ? &*view : nullptr);
+                    }
+                });
+            }
         }
     } else {
         // ---- every pixel evaluated (half of them when the mirror applies) ----
         const std::vector<int> columns = evaluated_columns(key, W);
         report(std::size_t(grid_rows));
-        {
-            parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
-                Scratch& s = scratch[std::size_t(worker)];
-                s.resize(columns.size(), nw);
-                for (int y = int(rb); y < int(re); ++y) {
-                    if (cancelled()) return;
-                    if (y < image_rows) {
-                        for (std::size_t k = 0; k < columns.size(); ++k)
-                            s.dirs[k] = Vec3<double>(equirect_pixel_direction(columns[k], y, W, H));
-                        evaluate(s, columns.size());
-                        for (std::size_t k = 0; k < columns.size(); ++k) {
-                            const int x = columns[k];
-                            float* px = image.at(x, y);
-                            store_rgb(ctx.to_rgb, std::span<const double>(s.radiance.data() + k * nw, nw), px);
-                            if (key >= 0) std::copy(px, px + 3, image.at(mirror_column(key, x, W), y));
-                        }
-                    }
-                    report(1);
+        parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
+            std::vector<std::pair<int, int>> pixels(columns.size());
+            for (int y = int(rb); y < int(re); ++y) {
+                if (cancelled()) return;
+                if (y < image_rows) {
+                    for (std::size_t k = 0; k < columns.size(); ++k) pixels[k] = {columns[k], y};
+                    evaluate_pixels(scratch[std::size_t(worker)], pixels, view ? &*view : nullptr);
                 }
-            });
-        }
+                report(1);
+            }
+        });
     }
     if (cancelled()) throw Cancelled("sky: cancelled");
 
