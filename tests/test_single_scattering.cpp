@@ -206,6 +206,47 @@ TEST(SingleScattering, GaussLegendreNodesConvergeFast) {
                 worst16, worst32);
 }
 
+// Hazy air at low sun (docs/sky.md "Hazy atmospheres at low sun"): a thin, dense aerosol
+// carries the view's and the sun's optical depths near the ground, so the closed-form map of
+// the molecules (which takes the optical depths to follow the molecules' density) put its
+// nodes where their light is not. Before the tabulated sampling `earth-hazy` was 11–91 % off
+// on these rays at any practical node count (72 % at 256 nodes) and `blender-nishita` 1.3 %;
+// now the default 16 nodes are within 0.6 % of the nested quadrature (measured worst printed).
+TEST(SingleScattering, HazyAirAtLowSunMatchesNestedQuadrature) {
+    struct HazyCase {
+        const char* preset;
+        ViewRay ray;
+    };
+    const HazyCase cases[] = {
+        {"earth-hazy", view(0, 60, 60, 90)},   {"earth-hazy", view(0, 80, 85, 90)},
+        {"earth-hazy", view(0, 85, 88, 0)},    {"earth-hazy", view(0, 85, 88, 180)},
+        {"earth-hazy", view(0, 60, 92, 0)},    {"earth-hazy", view(0, 60, 94, 0)},
+        {"earth-hazy", view(0, 85, 94, 0)},    {"earth-hazy", view(50e3, 95, 94, 0)},
+        {"blender-nishita", view(0, 60, 92, 0)}, {"blender-nishita", view(0, 85, 94, 0)},
+    };
+    EvalSettings exact;
+    exact.chapman = ChapmanMethod::exact;
+    double worst = 0.0;
+    for (const auto& c : cases) {
+        const Scene scene = load_preset(c.preset);
+        const Atmosphere ref_atm = compile_atmosphere(scene, kWavelengths, exact);
+        const Atmosphere atm = compile_atmosphere(scene, kWavelengths);
+        Result ref, got;
+        single_scattering_reference(scene, ref_atm, c.ray, ref.out(), 1e-8);
+        single_scattering(atm, c.ray, got.out());
+        for (int w = 0; w < 3; ++w) {
+            const double total = ref.R[w] + ref.M[w];
+            ASSERT_GT(total, 0.0) << c.preset;
+            const double e = std::abs(got.R[w] + got.M[w] - total) / total;
+            worst = std::max(worst, e);
+            EXPECT_LE(e, 6e-3) << c.preset << " view zenith " << std::acos(c.ray.view_direction.z) * 180 / std::numbers::pi
+                               << "° sun zenith " << std::acos(c.ray.sun_direction.z) * 180 / std::numbers::pi
+                               << "° λ=" << kWavelengths[w] << ": " << got.R[w] + got.M[w] << " against " << total;
+        }
+    }
+    std::printf("hazy air at low sun, 16 nodes, worst |in-scatter - nested quadrature| / in-scatter: %.2e\n", worst);
+}
+
 // ---- extremes: finite, non-negative, T in [0, 1] ---------------------------------------
 
 void expect_sane(const Result& r, const std::string& what) {
