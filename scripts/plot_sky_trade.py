@@ -20,12 +20,21 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-BASIS_COLOURS = {
-    "rgb-schuler": "tab:red",
-    "spectral-21": "tab:orange",
-    "spectral-48": "tab:blue",
-    "spectral-95": "tab:green",
-}
+# The bases `airmass report sky` labels: RGB, Blender's 21 wavelengths, then the 10-, 5-nm
+# samplings (spectral-48 / -95 over 360-830 nm; fewer where a preset's tables cover less, e.g.
+# spectral-41 / -81 for blender-nishita) and, when it is none of these, the preset's own basis.
+BASIS_COLOURS = ["tab:red", "tab:orange", "tab:blue", "tab:green", "tab:purple", "tab:brown"]
+
+
+def basis_colours(rows):
+    """Colour per basis label, in the order the report lists them."""
+    labels = []
+    for r in rows:
+        if r["basis"] not in labels:
+            labels.append(r["basis"])
+    order = sorted(labels, key=lambda b: (b != "rgb-schuler", b != "spectral-21",
+                                          int(b.split("-")[1]) if b.split("-")[-1].isdigit() else 10**6))
+    return {b: BASIS_COLOURS[i % len(BASIS_COLOURS)] for i, b in enumerate(order)}
 MARKERS = ["o", "s", "^", "v", "D", "P", "X", "*", "<", ">"]
 ERROR_FLOOR = 1e-5  # plotted in place of 0 on the log axis
 
@@ -63,12 +72,13 @@ def main():
     png = args.png or os.path.join(args.out_dir, "sky_trade.png")
 
     methods = sorted({r["chapman"] for r in rows})
+    colours = basis_colours(rows)
     marker = {m: MARKERS[i % len(MARKERS)] for i, m in enumerate(methods)}
     fig, ax = plt.subplots(figsize=(9, 6), dpi=120)
     for r in rows:
         err = max(r["p95_above"], ERROR_FLOOR) if math.isfinite(r["p95_above"]) else 1.0
         ax.scatter(r["ms_per_mpix"], err, marker=marker[r["chapman"]],
-                   color=BASIS_COLOURS.get(r["basis"], "tab:gray"),
+                   color=colours[r["basis"]],
                    edgecolors="black" if r["grid"] > 0 else "none", linewidths=0.8, s=28, alpha=0.85)
     pts = [(r["ms_per_mpix"], max(r["p95_above"], ERROR_FLOOR)) for r in rows]
     front = pareto(pts)
@@ -80,7 +90,7 @@ def main():
     ax.set_xlabel("time per megapixel (ms, full sphere, all threads)")
     ax.set_ylabel("95th-percentile relative error above the horizon")
     ax.set_title("airmass sky: speed vs accuracy (against the converged reference)")
-    handles = [plt.Line2D([], [], ls="", marker="o", color=c, label=b) for b, c in BASIS_COLOURS.items()]
+    handles = [plt.Line2D([], [], ls="", marker="o", color=c, label=b) for b, c in colours.items()]
     handles += [plt.Line2D([], [], ls="", marker=marker[m], color="gray", label=m) for m in methods]
     handles += [plt.Line2D([], [], ls="", marker="o", color="white", markeredgecolor="black", label="sky grid")]
     handles += ax.get_legend_handles_labels()[0]

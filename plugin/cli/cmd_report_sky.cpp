@@ -4,7 +4,7 @@
 // Knobs traded: Chapman method (sun rays and view segments) × view samples × spectral basis
 // (Schüler's 615/535/445 nm RGB basis, or N wavelengths with the CIE 1931 CMFs).
 // Reference: exact Chapman, `--reference-samples` view samples, 2.5-nm spectral sampling
-// (189 wavelengths, 360–830 nm), no sun disc. Its own convergence is measured too: against
+// (189 wavelengths, 360–830 nm, or the part of it the scene's tables cover), no sun disc. Its own convergence is measured too: against
 // twice the samples, and at a few directions against the evaluator's brute-force nested
 // quadrature (single_scattering_reference).
 //
@@ -89,6 +89,29 @@ SpectralBasis spectral(std::vector<double> nm) {
 SpectralBasis rgb_basis() {
     SpectralBasis b;
     b.kind = SpectralBasis::Kind::rgb_schuler;
+    return b;
+}
+
+// [lo, hi] ∩ the wavelengths every table of the scene covers (its sun irradiance, its constituents'
+// coefficients): the range its spectra may be sampled in.
+std::pair<double, double> tabulated_range_nm(const Scene& scene, double lo, double hi) {
+    const auto clip = [&](const std::vector<std::pair<double, double>>& table) {
+        if (table.empty()) return;
+        lo = std::max(lo, table.front().first);
+        hi = std::min(hi, table.back().first);
+    };
+    clip(scene.sun.irradiance_table);
+    for (const Constituent& c : scene.constituents) {
+        if (c.scattering.law == SpectralCoefficient::Law::table) clip(c.scattering.table);
+        if (c.absorption.law == SpectralCoefficient::Law::table) clip(c.absorption.table);
+    }
+    if (!(hi > lo)) throw CliError("report sky: the scene's tables share no wavelengths in [360, 830] nm");
+    return {lo, hi};
+}
+
+std::string num_nm(double nm) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", nm);
     return b;
 }
 
@@ -388,19 +411,37 @@ void run_report(const Options& opt, const Reporter& rep) {
     conditions.push_back({30.0, 400e3, false});
     if (opt.quick) conditions = {{5.0, 0.0, true}, {30.0, 10e3, true}, {-3.0, 0.0, false}};
 
-    const std::vector<Basis> bases = {
+    // The spectral bases span 360–830 nm, or the part of it the scene's tables cover (a table
+    // is never extrapolated: `blender-nishita`'s are 380–780 nm); the default basis is the
+    // preset's own (`earth`'s 48 wavelengths, Blender's 21), added to the list when it is none
+    // of these.
+    const auto [lo_nm, hi_nm] = tabulated_range_nm(base, 360.0, 830.0);
+    const auto spectral_every = [&](double step) {
+        const std::vector<double> nm = range_nm(std::ceil(lo_nm / step) * step, hi_nm, step);
+        return Basis{"spectral-" + std::to_string(nm.size()), spectral(nm)};
+    };
+    std::vector<Basis> bases = {
         {"rgb-schuler", rgb_basis()},
         {"spectral-21", spectral(range_nm(380, 780, 20))},
-        {"spectral-48", spectral(range_nm(360, 830, 10))},
-        {"spectral-95", spectral(range_nm(360, 830, 5))},
+        spectral_every(10.0),
+        spectral_every(5.0),
     };
-    const Basis reference_basis{"spectral-189", spectral(range_nm(360, 830, 2.5))};
+    if (lo_nm > 380.0 || hi_nm < 780.0) bases.erase(bases.begin() + 1);  // Blender's grid needs 380–780 nm
+    std::size_t default_basis = bases.size();
+    for (std::size_t b = 0; b < bases.size(); ++b)
+        if (bases[b].basis.kind == base.basis.kind &&
+            basis_wavelengths_nm(bases[b].basis) == basis_wavelengths_nm(base.basis))
+            default_basis = b;
+    if (default_basis == bases.size()) {
+        const std::size_t n = basis_wavelengths_nm(base.basis).size();
+        bases.push_back({"preset-" + std::to_string(n), base.basis});
+    }
+    const Basis reference_basis = spectral_every(2.5);
 
-    // The sweeps: every Chapman method × view samples with the preset's basis (spectral-48);
+    // The sweeps: every Chapman method × view samples with the preset's basis;
     // every basis × view samples with the default method; the sky grid at the defaults.
     // All per pixel (grid 0) except the grid sweep.
     const SkySettings defaults;
-    const std::size_t default_basis = 2;
     std::vector<int> sample_counts = {2, 4, 8, 16, 32, 64};
     std::vector<ChapmanMethod> methods;
     for (const auto& m : chapman_methods()) methods.push_back(m.method);
@@ -665,7 +706,7 @@ void run_report(const Options& opt, const Reporter& rep) {
        << " full-sphere images, sun rotation 0°, no sun disc) against a converged reference computed in the same run: "
           "exact Chapman, "
        << opt.reference_samples << " view samples per constituent, " << reference_basis.basis.wavelengths_nm.size()
-       << " wavelengths (360–830 nm every 2.5 nm), every pixel evaluated. Error of a pixel = max over R, G, B of "
+       << " wavelengths (" << num_nm(lo_nm) << "–" << num_nm(hi_nm) << " nm every 2.5 nm), every pixel evaluated. Error of a pixel = max over R, G, B of "
           "|c − c_ref| / max(c_ref, Y_ref) (relative per channel; a channel darker than the pixel's luminance Y is "
           "judged against Y). Statistics weighted by solid angle and pooled over sun elevations 5°, 15°, 30°, 60°, "
           "90° × observer altitudes 0, 5, 10 km (sun ≤ 85° from the zenith); \"above\"/\"below\" = view "
