@@ -481,9 +481,16 @@ TEST(SkyGrid, ElevatedObserversAtTwilightAreSplitAtTheHorizontal) {
         }
         std::sort(errs.begin(), errs.end());
         // Measured 2026-12-07, split at the horizontal / not: from 2 km p95 0.83 / 0.96 %, max
-        // 3.99 / 5.13 %; from 20 km p95 0.54 / 1.81 %, max 3.17 / 7.1 %.
+        // 3.99 / 5.13 %; from 20 km p95 0.54 / 1.81 %, max 3.17 / 7.1 %. Later that day the rays
+        // through a periapsis got their pieces (single_scattering_kernels.inc share_nodes): each
+        // pixel nearer the converged value (in this band, against 256 samples, worst pixel 2.31 →
+        // 0.65 %) but with node shares that change in steps between neighbours, so from 20 km the
+        // grid against every pixel is p95 1.00 %, max 2.44 % (the grid against 256 samples: p95
+        // 1.19 → 1.10 %); 2 km unchanged. The bound still fails without the split (1.81 %).
         const double p95 = errs[errs.size() * 95 / 100];
-        EXPECT_LT(p95, alt > 10e3 ? 0.01 : 0.009) << "alt " << alt;
+        std::printf("twilight, %g km, within 1.5 deg of the horizontal, grid against every pixel: p95 %.2e, max %.2e\n",
+                    alt / 1e3, p95, worst);
+        EXPECT_LT(p95, alt > 10e3 ? 0.013 : 0.009) << "alt " << alt;
         EXPECT_LT(worst, alt > 10e3 ? 0.05 : 0.045) << "alt " << alt;
     }
     // An upper hemisphere reads nothing below the horizontal: its one sky piece ends there

@@ -30,7 +30,7 @@ struct EvalSettings {
     ChapmanMethod chapman = ChapmanMethod::airmass;
     // Samples per scattering constituent along each view ray (Gauss–Legendre nodes in that
     // constituent's sampling variable; single_scattering.hpp). ≥ 1. After compile_atmosphere,
-    // change it with set_view_samples (which refreshes Atmosphere::view_rule).
+    // change it with set_view_samples (which checks the range).
     int view_samples = 16;
     // Add the solar disc (uniform radiance E_sun / Ω_sun, Ω_sun = 2π(1 − cos α)) to view
     // rays that point into it and reach space.
@@ -83,11 +83,10 @@ struct Atmosphere {
     // Derived by compile_atmosphere for the hot loops: extinction_per_m of every
     // constituent, wavelength-major: [w * constituents.size() + i].
     std::vector<double> extinction_matrix;
-    // Derived: the view-ray quadrature of settings.view_samples nodes on [0, 1] as (node,
-    // weight) pairs — Gauss–Legendre (panels of ≤ 16 beyond 16; single_scattering.hpp). Change
-    // view_samples with set_view_samples, which refreshes it; a rule of another size is not
-    // used (the single-scattering kernels then make the right one per call, correct but slower).
-    std::vector<double> view_rule;
+    // Derived: the Gauss–Legendre rules of 1 … 16 nodes on [0, 1] (math/quadrature.hpp
+    // unit_gauss_rule_table), from which the view-ray quadrature composes the rule of each
+    // piece of a ray it shares settings.view_samples nodes among (single_scattering.hpp).
+    std::vector<double> gauss_rules;
 
     std::size_t wavelength_count() const { return wavelengths_nm.size(); }
 };
@@ -114,8 +113,7 @@ inline constexpr std::size_t kMaxProfileKinks = 8;
 std::vector<double> profile_knots_m(const Scene& scene);
 std::vector<double> profile_knots_m(std::span<const CompiledProfile> profiles);
 
-// settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it)
-// with its quadrature rule (view_rule).
+// settings.view_samples = view_samples (in [1, 1000000], else std::invalid_argument naming it).
 void set_view_samples(Atmosphere& atmosphere, int view_samples);
 
 // Replace the sun's top-of-atmosphere irradiance by a constant (W m⁻² nm⁻¹), e.g. 1 for

@@ -29,25 +29,26 @@ std::vector<std::pair<double, double>> rule(int p) {
 
 }  // namespace
 
+std::vector<double> unit_gauss_rule_table() {
+    std::vector<double> table;
+    table.reserve(std::size_t(kMaxGaussPanelNodes) * (kMaxGaussPanelNodes + 1));
+    for (int p = 1; p <= kMaxGaussPanelNodes; ++p)
+        for (const auto& [x, w] : rule(p)) {
+            table.push_back(x);
+            table.push_back(w);
+        }
+    return table;
+}
+
 std::vector<double> unit_gauss_legendre(int n) {
     if (n < 1) throw std::invalid_argument("Gauss-Legendre rule: n = " + std::to_string(n) + ": must be >= 1");
     std::vector<double> out;
     out.reserve(2 * std::size_t(n));
-    const int panels = (n + kMaxGaussPanelNodes - 1) / kMaxGaussPanelNodes;
-    const int base = n / panels, extra = n % panels;  // the first `extra` panels take one more node
-    const auto small = rule(base);
-    const auto large = extra > 0 ? rule(base + 1) : small;
-    int done = 0;
-    for (int k = 0; k < panels; ++k) {
-        const auto& r = k < extra ? large : small;
-        const int p = int(r.size());
-        const double a = double(done) / n, width = double(p) / n;
-        for (const auto& [x, w] : r) {
-            out.push_back(a + width * x);
-            out.push_back(width * w);
-        }
-        done += p;
-    }
+    const std::vector<double> table = unit_gauss_rule_table();
+    for_each_unit_gauss_node(table.data(), n, [&](double x, double w) {
+        out.push_back(x);
+        out.push_back(w);
+    });
     return out;
 }
 

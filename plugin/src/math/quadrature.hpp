@@ -22,4 +22,24 @@ inline constexpr int kMaxGaussPanelNodes = 16;
 // Throws std::invalid_argument for n < 1.
 std::vector<double> unit_gauss_legendre(int n);
 
+// The Gauss–Legendre rules of 1 … kMaxGaussPanelNodes nodes on [0, 1], flattened: the p-point
+// rule's (node, weight) pairs start at element p(p − 1). What for_each_unit_gauss_node reads.
+std::vector<double> unit_gauss_rule_table();
+
+// The nodes of unit_gauss_legendre(n) (n ≥ 1), in order, as fn(node, weight), from a
+// unit_gauss_rule_table without allocating: the same panels, the same values.
+template <class Fn>
+void for_each_unit_gauss_node(const double* table, int n, Fn&& fn) {
+    const int panels = (n + kMaxGaussPanelNodes - 1) / kMaxGaussPanelNodes;
+    const int base = n / panels, extra = n % panels;  // the first `extra` panels take one more node
+    int done = 0;
+    for (int k = 0; k < panels; ++k) {
+        const int p = k < extra ? base + 1 : base;
+        const double* r = table + p * (p - 1);
+        const double a = double(done) / n, width = double(p) / n;
+        for (int i = 0; i < p; ++i) fn(a + width * r[2 * i], width * r[2 * i + 1]);
+        done += p;
+    }
+}
+
 }  // namespace airmass

@@ -178,7 +178,7 @@ Atmosphere compile_atmosphere(const Scene& scene, std::span<const double> wavele
                          " active constituents, at most " + std::to_string(kMaxConstituents) + " are supported");
     for (std::size_t w = 0; w < atm.wavelengths_nm.size(); ++w)
         for (const auto& c : atm.constituents) atm.extinction_matrix.push_back(c.extinction_per_m[w]);
-    atm.view_rule = unit_gauss_legendre(settings.view_samples);
+    atm.gauss_rules = unit_gauss_rule_table();
     atm.knots_m = profile_knots_m(profiles);
     return atm;
 }
@@ -228,7 +228,6 @@ void set_view_samples(Atmosphere& atmosphere, int view_samples) {
     if (view_samples < 1 || view_samples > 1000000)
         throw std::invalid_argument("view_samples = " + std::to_string(view_samples) + ": must be in [1, 1000000]");
     atmosphere.settings.view_samples = view_samples;
-    atmosphere.view_rule = unit_gauss_legendre(view_samples);
 }
 
 void set_constant_irradiance(Atmosphere& atmosphere, double irradiance) {
