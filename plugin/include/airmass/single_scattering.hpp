@@ -14,13 +14,15 @@
 // the other constituents (phase.hpp is_rayleigh_like); radiance = both + ground + disc.
 //
 // Integration: each scattering constituent i gets its own `view_samples` points,
-// placed as Gauss–Legendre nodes (panels of ≤ 16 beyond 16; Atmosphere::view_rule; the
+// placed as Gauss–Legendre nodes (panels of ≤ 16 beyond 16; Atmosphere::gauss_rules; the
 // midpoint rule until 2026-12-03) in a sampling variable in which rho_i(t)·T(t) is close
-// to constant: an exponential in |t − t_d| around the densest point t_d of the
-// segment (the periapsis, or the lower end), with decay length ℓ = the distance over
-// which the ray climbs one scale height from t_d, shortened by the extinction there;
-// the lit parts of the segment (Earth's shadow cut out exactly) are concatenated in
-// that variable, so samples move continuously with every parameter.
+// to constant: an exponential in |t − t_d| around the densest point t_d of each lit part
+// of the segment (the periapsis, or the end nearer it), with decay length ℓ = the
+// distance over which the ray climbs one scale height from t_d, or — where that model of
+// the optical depths fails — from probes of the light. The lit parts (Earth's shadow cut
+// out exactly), each cut at a periapsis inside it, are the pieces the points are shared
+// among, by measured estimates of each piece's light, each piece its own rule (docs/sky.md
+// "Rays through a periapsis").
 // T(x0 → x(t)) at each sample is exact (Eq. 37), not accumulated, so the only
 // quadrature error is that of the smooth remainder. Accuracy and cost are measured
 // in docs/evaluation.md.
