@@ -5,12 +5,14 @@
 # docs/*.md between BEGIN/END markers and docs/images/ — run it in a checkout you mean to
 # commit from). Output into out/ (or $1):
 #
-#   out/chapman/  Chapman methods: error vs time        out/sky/  sky texture knobs
+#   out/chapman/  Chapman methods: error vs time        out/sky/  sky texture knobs (earth)
 #   out/vdb/      voxel size and tiling                 out/ms/   multiple-scattering tables
-#   out/gallery/  the README's sky gallery
+#   out/gallery/  the README's sky gallery              out/sky-PRESET/  the same for the
+#                                                        other presets (docs/sky.md)
 #
-# Takes about 20 minutes on 2 cores (12 of them the sky trade). AIRMASS_QUICK=1: smaller
-# trade reports, for a smoke run (their figures are then not the README's).
+# Takes about 60 minutes on 2 cores (48 of them the sky trades, 12 per preset).
+# AIRMASS_QUICK=1: smaller trade reports, for a smoke run (their figures are then not the
+# README's).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$(realpath -m "${1:-$root/out}")"
@@ -35,6 +37,10 @@ stage "Chapman function trade -> $out/chapman"
 stage "sky texture trade -> $out/sky"
 "$airmass" report sky --out "$out/sky" "${quick[@]}"
 "$py" "$root/scripts/plot_sky_trade.py" "$out/sky" --png "$out/sky/sky_pareto.png"
+for preset in blender-nishita earth-hazy mars; do
+  stage "sky texture trade, $preset -> $out/sky-$preset"
+  "$airmass" report sky --preset "$preset" --no-multiple-view --out "$out/sky-$preset" "${quick[@]}"
+done
 
 stage "voxel-size trade -> $out/vdb"
 "$airmass" report vdb --out "$out/vdb"
