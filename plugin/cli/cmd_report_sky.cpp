@@ -415,7 +415,8 @@ void run_report(const Options& opt, const Reporter& rep) {
     // is never extrapolated: `blender-nishita`'s are 380–780 nm); the default basis is the
     // preset's own (`earth`'s 48 wavelengths, Blender's 21), added to the list when it is none
     // of these.
-    const auto [lo_nm, hi_nm] = tabulated_range_nm(base, 360.0, 830.0);
+    const std::pair<double, double> covered = tabulated_range_nm(base, 360.0, 830.0);
+    const double lo_nm = covered.first, hi_nm = covered.second;  // (a lambda below reads them)
     const auto spectral_every = [&](double step) {
         const std::vector<double> nm = range_nm(std::ceil(lo_nm / step) * step, hi_nm, step);
         return Basis{"spectral-" + std::to_string(nm.size()), spectral(nm)};
