@@ -54,6 +54,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <numbers>
 #include <span>
 #include <vector>
@@ -196,6 +197,8 @@ struct SkyGrid {
     std::vector<Piece> pieces;
     double sun_phi = 0.0;        // azimuth of the sun, atan2(s.y, s.x)
     std::vector<double> values;  // (rows_sky + rows_ground) × (G + 1) × channels
+    std::vector<double> log_values;        // ln values (take_logs), or empty: blend_row blends the values only
+    std::vector<unsigned char> log_cells;  // per row cell and column-channel: blended in the logarithm (take_logs)
 
     // A grid of the layout's intervals and rows per piece (no ground rows when `sky_only` and
     // the horizon is at or below 90°, i.e. an upper-hemisphere image of a ground observer).
@@ -355,6 +358,22 @@ struct SkyGrid {
     // The row part of a cell blended for every column at once: line[j · channels + ch]
     // (line.size() == columns() · channels). An image row shares it; each pixel then needs
     // only its column stencil (interpolate_line).
+    //
+    // After take_logs, each column's channel is blended in the domain where its
+    // four rows are smoother: the value, or its logarithm where all four are positive. The
+    // cubic's error is of the size of its stencil's third difference; in the logarithm that is
+    // a relative error, in the value an absolute one, so the two compare as |Δ³ ln v| against
+    // |Δ³ v| / min(v₀, v₁) over the cell's own rows (a row beyond the piece's end extrapolated
+    // in each domain as the stencil does). Light that grows by an e-fold or more per row — the
+    // sky next to the horizon seen through haze with the sun low, where the cubic in the value
+    // was 8 % off between rows — is exponential in θ, exact for the logarithm's cubic; light
+    // that turns sharply (a shadow's edge, a flat run ending in a drop) stays in the value,
+    // where the logarithm's cubic would overshoot. Both give the nodes' own values at the nodes,
+    // so the image stays continuous where neighbouring cells choose differently. The logarithm
+    // is taken only where its own third difference is at most kMaxLogThirdDifference (its
+    // cubic then within a few per cent): where both domains are rough (the Earth's shadow
+    // rising in the antisolar sky), the value's cubic overshoots less.
+    static constexpr double kMaxLogThirdDifference = 1.0;
     void blend_row(const Cell& c, std::span<double> line) const {
         int rr[4];
         double wr[4];
@@ -366,7 +385,49 @@ struct SkyGrid {
             const double* v = at(rr[a], 0);
             for (std::size_t x = 0; x < n; ++x) line[x] += wr[a] * v[x];
         }
+        if (log_cells.empty() || c.r1 == c.r0) return;
+        double w[4];
+        catmull_rom(c.wr, w);
+        const unsigned char* in_log = log_cells.data() + std::size_t(c.r0) * n;
+        for (std::size_t x = 0; x < n; ++x) {
+            if (!in_log[x]) continue;
+            double l[4];
+            log_stencil(c.r0, x, l);
+            line[x] = std::exp(w[0] * l[0] + w[1] * l[1] + w[2] * l[2] + w[3] * l[3]);
+        }
     }
+    // ln of every value (NaN where it is not positive) and, for every cell of rows (r, r + 1)
+    // inside a piece, the columns' channels blend_row takes in the logarithm. Call once the
+    // values are final.
+    void take_logs() {
+        log_values.resize(values.size());
+        for (std::size_t i = 0; i < values.size(); ++i)
+            log_values[i] = values[i] > 0.0 ? std::log(values[i]) : std::numeric_limits<double>::quiet_NaN();
+        const std::size_t n = std::size_t(columns()) * channels;
+        log_cells.assign(std::size_t(rows()) * n, 0);
+        for (int r = 0; r + 1 < rows(); ++r) {
+            const Piece& p = piece_of_row(r);
+            if (r + 1 > p.last()) continue;  // across a piece's end: never blended
+            for (std::size_t x = 0; x < n; ++x) {
+                double v[4], l[4];
+                stencil(values, r, x, v);
+                log_stencil(r, x, l);
+                const double d3_log = std::abs(l[3] - 3.0 * l[2] + 3.0 * l[1] - l[0]);  // NaN: a value ≤ 0
+                const double d3_value = std::abs(v[3] - 3.0 * v[2] + 3.0 * v[1] - v[0]) / std::min(v[1], v[2]);
+                log_cells[std::size_t(r) * n + x] = d3_log < d3_value && d3_log <= kMaxLogThirdDifference;
+            }
+        }
+    }
+    // The four rows r − 1 … r + 2 of cell (r, r + 1) at column-channel x of `of` (values or
+    // log_values), a row beyond the piece's end extrapolated linearly as row_stencil does.
+    void stencil(const std::vector<double>& of, int r, std::size_t x, double out[4]) const {
+        const Piece& p = piece_of_row(r);
+        const std::size_t n = std::size_t(columns()) * channels;
+        for (int t = 0; t < 4; ++t) out[t] = of[std::size_t(std::clamp(r - 1 + t, p.first, p.last())) * n + x];
+        if (r - 1 < p.first) out[0] = 2.0 * out[1] - out[2];
+        if (r + 2 > p.last()) out[3] = 2.0 * out[2] - out[1];
+    }
+    void log_stencil(int r, std::size_t x, double out[4]) const { stencil(log_values, r, x, out); }
     void interpolate_line(std::span<const double> line, const int cols[4], const double w[4],
                           std::span<double> out) const {
         for (int ch = 0; ch < channels; ++ch)

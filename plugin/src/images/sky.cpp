@@ -421,10 +421,19 @@ bool short_ground_ray(const Atmosphere& atm, double h0, double L, double sun_z) 
 constexpr int kGridChannels = 12;
 // SkyGrid::rough_cells' thresholds, for the image's grid and the multiple-scattering view: a cell
 // is rough where the quadratic estimates of its middle disagree by more than 5 % of its corners'
-// value plus 1e-3 of the grid's largest (docs/sky.md "Rough cells": 2 % doubled the pixels
-// evaluated from orbit for max 4.5 → 0.9 %; 10 % missed the band from 50 km at twilight).
+// value plus a floor of the grid's largest (docs/sky.md "Rough cells": 2 % doubled the pixels
+// evaluated from orbit for max 4.5 → 0.9 %; 10 % missed the band from 50 km at twilight). The
+// image's floor is 1e-5: at 1e-3 the cells the cubic misses in light a thousandth of the
+// brightest were left interpolated — the Earth's shadow rising in the antisolar sky at sun −4°
+// (earth, ground, 512 × 256 single scattering against every pixel: max 21 % → 0.20 %), the sky
+// next to the horizon through haze at sunrise (earth-hazy, sun 1°: 3.4 → 0.07 %); at 1e-4 the
+// shadow still 5 %. Daylight from the ground evaluates no pixel more; twilight and sunrise
+// scenes 0.5–4 % of their pixels (+50 % time at most, earth-hazy sun −4°; docs/sky.md "Rough
+// cells in faint light"). The view's floor stays 1e-3: its rough cells integrate the multiple
+// scattering along each pixel's ray.
 constexpr double kRoughTolerance = 0.05;
-constexpr double kRoughFloor = 1e-3;
+constexpr double kRoughFloor = 1e-5;
+constexpr double kViewRoughFloor = 1e-3;
 
 // The image grid holds each radiance column's single scattering (the evaluator's
 // Rayleigh-like and other constituents) over a phase function of that column, which each
@@ -652,6 +661,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
             });
         }
         if (cancelled()) throw Cancelled("sky: cancelled");
+        grid.take_logs();  // rows blended in the value or its logarithm (SkyGrid::blend_row)
         // T̄ of every image row (one ray per row, toward the sun's azimuth).
         std::vector<double> row_transmittance(std::size_t(image_rows), 1.0);
         // Only T is needed here: view_transmittance_batch gives single scattering's T without
@@ -733,7 +743,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         if (settings.refine_rough_cells) {
             const std::vector<unsigned char> rough = grid.rough_cells(kRoughTolerance, kRoughFloor);
             const std::vector<unsigned char> view_rough =
-                view ? view->grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>{};
+                view ? view->grid.rough_cells(kRoughTolerance, kViewRoughFloor) : std::vector<unsigned char>{};
             std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
             {
                 const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
