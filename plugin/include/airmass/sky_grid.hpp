@@ -445,7 +445,25 @@ struct SkyGrid {
     // extrapolated linearly; columns mirrored). Dilated by a cell each way (a cubic reaches one
     // cell beyond its own). (rows() − 1) × intervals flags; a row pair across a piece's end is
     // never rough (never interpolated across).
-    std::vector<unsigned char> rough_cells(double tolerance, double floor) const {
+    //
+    //
+    // With `shown` (the image's grid), the channels are parts of what a pixel shows — channel
+    // ch is part ch / colours of colour ch % colours, and a node's pixel is Σ_parts
+    // weight(node, part) × value — and a cell is also rough where the parts' disagreements in
+    // the pixel's units, summed per colour, exceed `tolerance` of the corners' pixel luminance
+    // plus shown.floor of the largest on the grid. The channels' own floor (`floor` of each
+    // channel's largest value) leaves faint light interpolated however wrong: the Earth's
+    // shadow rising in the antisolar sky at twilight is a thousandth of the sky toward the
+    // sun. Judged in the pixel, a part's edge that other parts outshine (the single
+    // scattering's shadow where the multiple scattering fills it) is not rough, and faint
+    // light is judged against itself down to shown.floor.
+    struct Shown {
+        int parts = 1;
+        double floor = 0.0;
+        std::vector<double> weight;     // rows() × columns() × parts
+        std::vector<double> luminance;  // rows() × columns(): the node's pixel
+    };
+    std::vector<unsigned char> rough_cells(double tolerance, double floor, const Shown* shown = nullptr) const {
         const int R = rows(), C = intervals;
         const std::size_t nc = std::size_t(channels), stride = std::size_t(columns()) * nc;
         std::vector<unsigned char> rough(std::size_t(std::max(R - 1, 0)) * std::size_t(C), 0);
@@ -453,6 +471,10 @@ struct SkyGrid {
         std::vector<double> floor_of(nc, 0.0);  // floor × the channel's largest value
         for (std::size_t i = 0; i < values.size(); ++i) floor_of[i % nc] = std::max(floor_of[i % nc], std::abs(values[i]));
         for (double& f : floor_of) f *= floor;
+        double brightest = 0.0;  // with `shown`: the largest pixel luminance of a node
+        if (shown)
+            for (const double y : shown->luminance) brightest = std::max(brightest, y);
+        std::vector<double> colour_error(shown ? nc / std::size_t(shown->parts) : 0);
         const auto column = [&](int j) {  // mirrored at ψ = 0 and π, as column_stencil
             if (j < 0) j = -j;
             if (j > C) j = 2 * C - j;
@@ -510,6 +532,25 @@ struct SkyGrid {
                              *v11 = v10 + nc;
                 const double *r0 = d3r.data() + std::size_t(c) * nc, *r1 = r0 + nc;
                 const double *a0 = c0 + std::size_t(c) * nc, *a1 = c1 + std::size_t(c) * nc;
+                if (shown) {
+                    const std::size_t np = std::size_t(shown->parts), colours = nc / np;
+                    const std::size_t n00 = std::size_t(r) * columns() + std::size_t(c), n10 = n00 + columns();
+                    const std::size_t corner[4] = {n00, n00 + 1, n10, n10 + 1};
+                    double y = 0.0;
+                    for (const std::size_t k : corner) y = std::max(y, shown->luminance[k]);
+                    std::fill(colour_error.begin(), colour_error.end(), 0.0);
+                    for (std::size_t ch = 0; ch < nc; ++ch) {
+                        double w = 0.0;
+                        for (const std::size_t k : corner) w = std::max(w, shown->weight[k * np + ch / colours]);
+                        const double d = std::max(std::max(std::abs(a0[ch]), std::abs(a1[ch])),
+                                                  std::max(std::abs(r0[ch]), std::abs(r1[ch])));
+                        colour_error[ch % colours] += w * d;
+                    }
+                    const double scale = 8.0 * (tolerance * y + shown->floor * brightest);
+                    raw[std::size_t(r) * C + c] =
+                        *std::max_element(colour_error.begin(), colour_error.end()) > scale;
+                    if (raw[std::size_t(r) * C + c]) continue;
+                }
                 bool is_rough = false;
                 for (std::size_t ch = 0; ch < nc; ++ch) {
                     // the quadratic estimates disagree by |d3| / 8

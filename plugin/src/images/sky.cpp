@@ -421,19 +421,16 @@ bool short_ground_ray(const Atmosphere& atm, double h0, double L, double sun_z) 
 constexpr int kGridChannels = 12;
 // SkyGrid::rough_cells' thresholds, for the image's grid and the multiple-scattering view: a cell
 // is rough where the quadratic estimates of its middle disagree by more than 5 % of its corners'
-// value plus a floor of the grid's largest (docs/sky.md "Rough cells": 2 % doubled the pixels
-// evaluated from orbit for max 4.5 → 0.9 %; 10 % missed the band from 50 km at twilight). The
-// image's floor is 1e-5: at 1e-3 the cells the cubic misses in light a thousandth of the
-// brightest were left interpolated — the Earth's shadow rising in the antisolar sky at sun −4°
-// (earth, ground, 512 × 256 single scattering against every pixel: max 21 % → 0.20 %), the sky
-// next to the horizon through haze at sunrise (earth-hazy, sun 1°: 3.4 → 0.07 %); at 1e-4 the
-// shadow still 5 %. Daylight from the ground evaluates no pixel more; twilight and sunrise
-// scenes 0.5–4 % of their pixels (+50 % time at most, earth-hazy sun −4°; docs/sky.md "Rough
-// cells in faint light"). The view's floor stays 1e-3: its rough cells integrate the multiple
-// scattering along each pixel's ray.
+// value plus 1e-3 of the grid's largest (docs/sky.md "Rough cells": 2 % doubled the pixels
+// evaluated from orbit for max 4.5 → 0.9 %; 10 % missed the band from 50 km at twilight).
+// The image's grid is also judged in its pixels (SkyGrid::Shown), down to 1e-5 of the
+// brightest node: faint light the channels' floor left interpolated — the Earth's shadow
+// rising in the antisolar sky at sun −4° (earth, ground, 512 × 256 single scattering against
+// every pixel: max 21 → 0.6 %), the horizon through haze at sunrise (docs/sky.md "Rough cells
+// in faint light").
 constexpr double kRoughTolerance = 0.05;
-constexpr double kRoughFloor = 1e-5;
-constexpr double kViewRoughFloor = 1e-3;
+constexpr double kRoughFloor = 1e-3;
+constexpr double kShownRoughFloor = 1e-5;
 
 // The image grid holds each radiance column's single scattering (the evaluator's
 // Rayleigh-like and other constituents) over a phase function of that column, which each
@@ -625,6 +622,11 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
     if (G > 0) {
         // ---- the grid, then every pixel interpolated from it ----
         const int cols = grid.columns();
+        SkyGrid::Shown shown;  // the parts' weights in each node's pixel (rough cells)
+        shown.parts = 4;
+        shown.floor = kShownRoughFloor;
+        shown.weight.resize(std::size_t(grid_rows) * std::size_t(cols) * 4);
+        shown.luminance.resize(std::size_t(grid_rows) * std::size_t(cols));
         {
             parallel_for(0, std::size_t(grid_rows), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
                 Scratch& s = scratch[std::size_t(worker)];
@@ -655,6 +657,14 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                         double* out = grid.at(k, j);
                         for (int p = 0; p < 4; ++p)
                             for (int c = 0; c < 3; ++c) out[3 * p + c] = parts[p][c] * scale[p];
+                        // what the node's pixel is made of, for the rough cells
+                        const std::size_t node = std::size_t(k) * std::size_t(cols) + std::size_t(j);
+                        const double shown_weight[4] = {phases.rayleigh(nu) * (1.0 - T), phases.mie(nu) * (1.0 - T),
+                                                        1.0 - T, T};
+                        std::copy(shown_weight, shown_weight + 4, shown.weight.begin() + std::ptrdiff_t(4 * node));
+                        double y = 0.0;
+                        for (const Vec3d& part : parts) y += 0.2126 * part[0] + 0.7152 * part[1] + 0.0722 * part[2];
+                        shown.luminance[node] = std::max(y, 0.0);
                     }
                     report(1);
                 }
@@ -741,9 +751,9 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         // evaluated along its own ray, its multiple scattering interpolated from the view; one
         // in a rough cell of the view's grid has that integrated along its ray too.
         if (settings.refine_rough_cells) {
-            const std::vector<unsigned char> rough = grid.rough_cells(kRoughTolerance, kRoughFloor);
+            const std::vector<unsigned char> rough = grid.rough_cells(kRoughTolerance, kRoughFloor, &shown);
             const std::vector<unsigned char> view_rough =
-                view ? view->grid.rough_cells(kRoughTolerance, kViewRoughFloor) : std::vector<unsigned char>{};
+                view ? view->grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>{};
             std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
             {
                 const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
