@@ -619,6 +619,40 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         return std::clamp(t, 0.0, 1.0);
     };
 
+    // The cells of the multiple-scattering view its cubics cannot follow (SkyGrid::rough_cells:
+    // from orbit at twilight, the shadow's edge across the limb): their pixels' multiple
+    // scattering is integrated along each pixel's own ray, whether the image interpolates its
+    // grid or evaluates every pixel. view_rough_row[y]: the view's cell row that holds image
+    // row y where that row has a rough cell, else −1; view_c0[x]: the view's cell column of x.
+    const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
+        std::vector<unsigned char> any(flags.size() / std::size_t(std::max(intervals, 1)) + 1, 0);
+        for (std::size_t i = 0; i < flags.size(); ++i) any[i / std::size_t(intervals)] |= flags[i];
+        return any;
+    };
+    // the row of a cell that holds θ, or −1 (none, or not rough anywhere)
+    const auto rough_row = [](const SkyGrid& g, const std::vector<unsigned char>& has, double theta) {
+        SkyGrid::Cell cell;
+        if (!g.cell(theta, g.sun_phi, cell) || cell.r1 == cell.r0 || !has[std::size_t(cell.r0)]) return -1;
+        return cell.r0;
+    };
+    std::vector<unsigned char> view_rough;
+    std::vector<int> view_rough_row(std::size_t(image_rows), -1), view_c0;
+    if (view && settings.refine_rough_cells) {
+        view_rough = view->grid.rough_cells(kRoughTolerance, kRoughFloor);
+        const std::vector<unsigned char> view_row_has = rows_with(view_rough, view->grid.intervals);
+        for (int y = 0; y < image_rows; ++y)
+            view_rough_row[std::size_t(y)] = rough_row(view->grid, view_row_has, kPi * (y + 0.5) / H);
+        view_c0.resize(std::size_t(W));
+        for (std::size_t x = 0; x < view_c0.size(); ++x) {
+            double wc;
+            view->grid.column(kPi - kTwoPi * (double(x) + 0.5) / W, view_c0[x], wc);
+        }
+    }
+    const auto view_rough_at = [&](int x, int y) {
+        const int rv = view_rough_row[std::size_t(y)];
+        return rv >= 0 && view_rough[std::size_t(rv) * view->grid.intervals + view_c0[std::size_t(x)]];
+    };
+
     if (G > 0) {
         // ---- the grid, then every pixel interpolated from it ----
         const int cols = grid.columns();
@@ -752,37 +786,14 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         // in a rough cell of the view's grid has that integrated along its ray too.
         if (settings.refine_rough_cells) {
             const std::vector<unsigned char> rough = grid.rough_cells(kRoughTolerance, kRoughFloor, &shown);
-            const std::vector<unsigned char> view_rough =
-                view ? view->grid.rough_cells(kRoughTolerance, kRoughFloor) : std::vector<unsigned char>{};
             std::vector<std::pair<int, int>> exact[2];  // (x, y): [0] the view's multiple scattering, [1] per ray
             {
-                const auto rows_with = [](const std::vector<unsigned char>& flags, int intervals) {
-                    std::vector<unsigned char> any(flags.size() / std::size_t(std::max(intervals, 1)) + 1, 0);
-                    for (std::size_t i = 0; i < flags.size(); ++i) any[i / std::size_t(intervals)] |= flags[i];
-                    return any;
-                };
                 const std::vector<unsigned char> row_has = rows_with(rough, grid.intervals);
-                const std::vector<unsigned char> view_row_has =
-                    view ? rows_with(view_rough, view->grid.intervals) : std::vector<unsigned char>{};
-                std::vector<int> view_c0(view ? std::size_t(W) : 0);
-                for (std::size_t x = 0; x < view_c0.size(); ++x) {
-                    double wc;
-                    view->grid.column(kPi - kTwoPi * (double(x) + 0.5) / W, view_c0[x], wc);
-                }
-                // the row of a cell that holds θ, or −1 (none, or not rough anywhere)
-                const auto rough_row = [](const SkyGrid& g, const std::vector<unsigned char>& has, double theta) {
-                    SkyGrid::Cell cell;
-                    if (!g.cell(theta, g.sun_phi, cell) || cell.r1 == cell.r0 || !has[std::size_t(cell.r0)]) return -1;
-                    return cell.r0;
-                };
                 for (int y = 0; y < image_rows; ++y) {
-                    const double theta = kPi * (y + 0.5) / H;
-                    const int r = rough_row(grid, row_has, theta);
-                    const int rv = view ? rough_row(view->grid, view_row_has, theta) : -1;
-                    if (r < 0 && rv < 0) continue;
+                    const int r = rough_row(grid, row_has, kPi * (y + 0.5) / H);
+                    if (r < 0 && view_rough_row[std::size_t(y)] < 0) continue;
                     for (const int x : columns) {
-                        const bool per_ray =
-                            rv >= 0 && view_rough[std::size_t(rv) * view->grid.intervals + view_c0[std::size_t(x)]];
+                        const bool per_ray = view_rough_at(x, y);
                         if (per_ray || (r >= 0 && rough[std::size_t(r) * grid.intervals + stencils[std::size_t(x)].c0]))
                             exact[per_ray].emplace_back(x, y);
                     }
@@ -807,12 +818,15 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
         const std::vector<int> columns = evaluated_columns(key, W);
         report(std::size_t(grid_rows));
         parallel_for(0, std::size_t(H), 1, threads, [&](std::size_t rb, std::size_t re, int worker) {
-            std::vector<std::pair<int, int>> pixels(columns.size());
+            std::vector<std::pair<int, int>> pixels, per_ray;  // the view's multiple scattering / along the ray
             for (int y = int(rb); y < int(re); ++y) {
                 if (cancelled()) return;
                 if (y < image_rows) {
-                    for (std::size_t k = 0; k < columns.size(); ++k) pixels[k] = {columns[k], y};
+                    pixels.clear();
+                    per_ray.clear();
+                    for (const int x : columns) (view_rough_at(x, y) ? per_ray : pixels).emplace_back(x, y);
                     evaluate_pixels(scratch[std::size_t(worker)], pixels, view ? &*view : nullptr);
+                    if (!per_ray.empty()) evaluate_pixels(scratch[std::size_t(worker)], per_ray, nullptr);
                 }
                 report(1);
             }
