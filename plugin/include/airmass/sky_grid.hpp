@@ -446,7 +446,6 @@ struct SkyGrid {
     // cell beyond its own). (rows() − 1) × intervals flags; a row pair across a piece's end is
     // never rough (never interpolated across).
     //
-    //
     // With `shown` (the image's grid), the channels are parts of what a pixel shows — channel
     // ch is part ch / colours of colour ch % colours, and a node's pixel is Σ_parts
     // weight(node, part) × value — and a cell is also rough where the parts' disagreements in

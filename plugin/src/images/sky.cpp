@@ -426,8 +426,8 @@ constexpr int kGridChannels = 12;
 // The image's grid is also judged in its pixels (SkyGrid::Shown), down to 1e-5 of the
 // brightest node: faint light the channels' floor left interpolated — the Earth's shadow
 // rising in the antisolar sky at sun −4° (earth, ground, 512 × 256 single scattering against
-// every pixel: max 21 → 0.6 %), the horizon through haze at sunrise (docs/sky.md "Rough cells
-// in faint light").
+// every pixel: max 21 → 0.6 %), the horizon through haze at sunrise (docs/sky.md "Faint light
+// and exponential rows in the image's grid").
 constexpr double kRoughTolerance = 0.05;
 constexpr double kRoughFloor = 1e-3;
 constexpr double kShownRoughFloor = 1e-5;
@@ -825,7 +825,7 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                     pixels.clear();
                     per_ray.clear();
                     for (const int x : columns) (view_rough_at(x, y) ? per_ray : pixels).emplace_back(x, y);
-                    evaluate_pixels(scratch[std::size_t(worker)], pixels, view ? &*view : nullptr);
+                    if (!pixels.empty()) evaluate_pixels(scratch[std::size_t(worker)], pixels, view ? &*view : nullptr);
                     if (!per_ray.empty()) evaluate_pixels(scratch[std::size_t(worker)], per_ray, nullptr);
                 }
                 report(1);
