@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """The sky image's grid against every pixel evaluated, over conditions where it is hardest.
 
-    scripts/sky_grid_check.py [--airmass BIN] [--baseline BIN] [--set single|defaults] [--out DIR]
+    scripts/sky_grid_check.py [--airmass BIN] [--baseline BIN] [--set single|defaults|random]
+                              [--seed N --count K] [--out DIR]
 
-Two sets of conditions (docs/sky.md "Faint light and exponential rows in the image's grid"):
+Three sets of conditions (docs/sky.md "Faint light and exponential rows in the image's grid"):
 
   single    17 images, 512 x 256, single scattering only, no sun disc, each preset's own
             spectral basis: earth, blender-nishita, earth-hazy and mars from the preset's
@@ -18,12 +19,18 @@ Two sets of conditions (docs/sky.md "Faint light and exponential rows in the ima
             floor 1e-2 of the 99th percentile (the night side's 1e-6 pixels seen from orbit
             would otherwise dominate).
 
+  random    --count images of random conditions (--seed): a preset, 0-1000 km, sun -12 ... 40
+            deg at a random rotation, multiple scattering on or off, 384 x 192, no sun disc;
+            each against --grid 0 (the same multiple-scattering view: the image grid's own
+            error), floor 1e-3.
+
 Per image: the solid-angle-weighted p95 and the maximum over pixels of max over R, G, B of
 |a - b| / max(Y_b, floor). With --baseline, the same for a second build, side by side (the
 reference is made by --airmass). The table cache goes to DIR/cache.
 """
 import argparse
 import os
+import random
 import subprocess
 import sys
 
@@ -70,7 +77,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--airmass", default="build/bin/airmass")
     ap.add_argument("--baseline", help="a second build, measured beside --airmass")
-    ap.add_argument("--set", choices=["single", "defaults"], default="single")
+    ap.add_argument("--set", choices=["single", "defaults", "random"], default="single")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--count", type=int, default=40)
     ap.add_argument("--out", default="out/sky-grid-check")
     o = ap.parse_args()
     os.makedirs(o.out, exist_ok=True)
@@ -82,6 +91,20 @@ def main():
                   (["--altitude-km", str(a)] if a else []) + ([] if s is None else ["--sun-elevation", str(s)]),
                   ["--grid", "0"])
                  for p, a, s in SINGLE]
+        floor = 1e-3
+    elif o.set == "random":
+        rng = random.Random(o.seed)
+        cases = []
+        for _ in range(o.count):
+            p = rng.choice(["earth", "blender-nishita", "earth-hazy", "mars"])
+            a = rng.choice([0, 0.3, 2, 5, 20, 50, 100, 400, 1000])
+            s = round(rng.uniform(-12, 40), 1)
+            rot = round(rng.uniform(0, 360), 1)
+            ms = rng.random() < 0.5
+            cases.append((f"{p}, {a} km, sun {s}, rotation {rot}, {'multiple' if ms else 'single'}",
+                          ["--preset", p, "--altitude-km", str(a), "--sun-elevation", str(s), "--sun-rotation",
+                           str(rot), "--width", "384", "--height", "192", "--no-sun-disc"] +
+                          ([] if ms else ["--no-multiple"]), ["--grid", "0"]))
         floor = 1e-3
     else:
         cases = [(f"earth, {a} km, sun {s}",
