@@ -389,10 +389,11 @@ struct SkyGrid {
         double w[4];
         catmull_rom(c.wr, w);
         const unsigned char* in_log = log_cells.data() + std::size_t(c.r0) * n;
+        const Piece& p = piece_of_row(c.r0);
         for (std::size_t x = 0; x < n; ++x) {
             if (!in_log[x]) continue;
             double l[4];
-            log_stencil(c.r0, x, l);
+            stencil(log_values, p, c.r0, x, l);
             line[x] = std::exp(w[0] * l[0] + w[1] * l[1] + w[2] * l[2] + w[3] * l[3]);
         }
     }
@@ -410,24 +411,22 @@ struct SkyGrid {
             if (r + 1 > p.last()) continue;  // across a piece's end: never blended
             for (std::size_t x = 0; x < n; ++x) {
                 double v[4], l[4];
-                stencil(values, r, x, v);
-                log_stencil(r, x, l);
+                stencil(values, p, r, x, v);
+                stencil(log_values, p, r, x, l);
                 const double d3_log = std::abs(l[3] - 3.0 * l[2] + 3.0 * l[1] - l[0]);  // NaN: a value ≤ 0
                 const double d3_value = std::abs(v[3] - 3.0 * v[2] + 3.0 * v[1] - v[0]) / std::min(v[1], v[2]);
                 log_cells[std::size_t(r) * n + x] = d3_log < d3_value && d3_log <= kMaxLogThirdDifference;
             }
         }
     }
-    // The four rows r − 1 … r + 2 of cell (r, r + 1) at column-channel x of `of` (values or
-    // log_values), a row beyond the piece's end extrapolated linearly as row_stencil does.
-    void stencil(const std::vector<double>& of, int r, std::size_t x, double out[4]) const {
-        const Piece& p = piece_of_row(r);
+    // The four rows r − 1 … r + 2 of cell (r, r + 1) of piece p at column-channel x of `of`
+    // (values or log_values), a row beyond the piece's end extrapolated linearly as row_stencil does.
+    void stencil(const std::vector<double>& of, const Piece& p, int r, std::size_t x, double out[4]) const {
         const std::size_t n = std::size_t(columns()) * channels;
         for (int t = 0; t < 4; ++t) out[t] = of[std::size_t(std::clamp(r - 1 + t, p.first, p.last())) * n + x];
         if (r - 1 < p.first) out[0] = 2.0 * out[1] - out[2];
         if (r + 2 > p.last()) out[3] = 2.0 * out[2] - out[1];
     }
-    void log_stencil(int r, std::size_t x, double out[4]) const { stencil(log_values, r, x, out); }
     void interpolate_line(std::span<const double> line, const int cols[4], const double w[4],
                           std::span<double> out) const {
         for (int ch = 0; ch < channels; ++ch)

@@ -686,15 +686,15 @@ FloatImage render_frame(const FrameContext& ctx, const SkySettings& settings, co
                             ctx.to_rgb.apply(std::span<const double>(s.mie.data() + o, nw)),
                             ctx.to_rgb.apply(std::span<const double>(s.multiple_inscatter.data() + o, nw)),
                             ctx.to_rgb.apply(ground)};
-                        const double scale[4] = {scatter_norm / phases.rayleigh(nu), scatter_norm / phases.mie(nu),
+                        const double pr = phases.rayleigh(nu), pm = phases.mie(nu);
+                        const double scale[4] = {scatter_norm / pr, scatter_norm / pm,
                                                  scatter_norm, T > 1e-300 ? 1.0 / T : 0.0};
                         double* out = grid.at(k, j);
                         for (int p = 0; p < 4; ++p)
                             for (int c = 0; c < 3; ++c) out[3 * p + c] = parts[p][c] * scale[p];
                         // what the node's pixel is made of, for the rough cells
                         const std::size_t node = std::size_t(k) * std::size_t(cols) + std::size_t(j);
-                        const double shown_weight[4] = {phases.rayleigh(nu) * (1.0 - T), phases.mie(nu) * (1.0 - T),
-                                                        1.0 - T, T};
+                        const double shown_weight[4] = {pr * (1.0 - T), pm * (1.0 - T), 1.0 - T, T};
                         std::copy(shown_weight, shown_weight + 4, shown.weight.begin() + std::ptrdiff_t(4 * node));
                         double y = 0.0;
                         for (const Vec3d& part : parts) y += 0.2126 * part[0] + 0.7152 * part[1] + 0.0722 * part[2];
