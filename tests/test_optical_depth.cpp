@@ -222,6 +222,35 @@ TEST(OpticalDepth, PiecewiseLinearClosedFormMatchesQuadrature) {
     }
 }
 
+// The reference itself from just below a tent's top: there (top − h) of an altitude rounded to a
+// double is noisy at ~1e-9 of itself, which Boost's relative-only bisection never accepted at
+// 1e-9 — the 4 mm case took 2²⁵ pieces and 58 s (a sun ray of single_scattering_reference,
+// `earth` from 400 km through a tangent altitude of 40 km). With the column's absolute floor every
+// case takes a few pieces and agrees with the closed form; before, these 20 cases together ran
+// past the test's 600 s limit.
+TEST(OpticalDepth, ReferenceMassesFromJustBelowATentsTopMatchTheClosedForm) {
+    Scene scene;
+    scene.planet = {kR, kR + kTop, 0.1};
+    Constituent con;
+    con.name = "ozone";
+    con.profile = tent_profile(10e3, 25e3, 40e3);
+    con.absorption.value_per_m = 1e-6;
+    scene.constituents.push_back(con);
+    const double wl[] = {550.0};
+    EvalSettings es;
+    es.chapman = ChapmanMethod::exact;
+    const Atmosphere atm = compile_atmosphere(scene, wl, es);
+    for (double below_m : {1e-6, 1e-3, 4e-3, 1e-2, 1.0})
+        for (double zenith : {0.0, 30.0, 66.0, 89.0}) {
+            const PlanetRay<double> ray = ray_deg(40e3 - below_m, zenith);
+            const double got = profile_segment_mass(atm.constituents[0].profile, ChapmanMethod::exact, ray, kTop, 0.0, kInf);
+            const double ref = profile_segment_mass_reference(con.profile, ray, kTop, 0.0, kInf, 1e-9);
+            // the mass of ≈ (below_m / cos χ) of density ≈ below_m / 15 km: 1e-16 … 1e-4 m
+            EXPECT_GT(ref, 0.0) << below_m << " m below, " << zenith << "°";
+            EXPECT_NEAR(got, ref, 1e-6 * ref + 1e-14) << below_m << " m below, " << zenith << "°";
+        }
+}
+
 Scene earth_like() { return test::earth_like_scene(); }
 
 TEST(OpticalDepth, AtmosphereMassesMatchQuadratureToTheTop) {

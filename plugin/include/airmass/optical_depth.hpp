@@ -146,9 +146,10 @@ bool sun_transmittance(const Atmosphere& atmosphere, double altitude_m, ZenithAn
 
 // ---- brute-force reference (tests) ----------------------------------------------------
 
-// The same masses by adaptive quadrature (Boost tanh-sinh, relative tolerance `rel_tol`)
-// of DensityProfile::at along the segment, split at the periapsis, the top and every
-// profile knot; independent of the Chapman and closed-form paths.
+// The same masses by adaptive quadrature (Gauss–Kronrod 61 bisected to a relative tolerance
+// `rel_tol`, or an absolute one of 1e-3 rel_tol of the profile's vertical column) of
+// DensityProfile::at along the segment, split at the periapsis, the top and every profile
+// knot; independent of the Chapman and closed-form paths.
 double profile_segment_mass_reference(const DensityProfile& profile, const PlanetRay<double>& ray,
                                       double top_altitude_m, double t0_m, double t1_m, double rel_tol = 1e-12);
 
