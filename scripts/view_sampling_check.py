@@ -2,7 +2,7 @@
 """Single scattering along single view rays against the brute-force reference, per preset.
 
     /usr/bin/python3 scripts/view_sampling_check.py [--airmass build/bin/airmass] [--samples 16,64,256]
-    /usr/bin/python3 scripts/view_sampling_check.py --sweep [--airmass A[,B...]] [--samples 16,64]
+    /usr/bin/python3 scripts/view_sampling_check.py --sweep [--limbs] [--airmass A[,B...]] [--samples 16,64]
 
 For each preset and each ray (an observer on the ground; view zenith, sun zenith and azimuth
 from the sun in degrees) prints the single-scattering radiance at 450, 550 and 650 nm from
@@ -22,6 +22,12 @@ reference) and sample count the largest, 99th-, 90th-percentile and median error
 being the largest over 450, 550 and 650 nm of |L − L_ref| / max(L_ref, 1e-4 of the brightest
 ray's L_ref) (so a ray in the Earth's shadow, 1e-17 beside 1e-2, is not judged by its own
 rounding). docs/sky.md "Rays through a periapsis".
+
+--sweep --limbs: daylight limbs seen from orbit instead — observers at 50 and 400 km, sun zenith
+30°, 60°, 75° and 85°, views through tangent altitudes of 1, 5, 10, 20 and 40 km, azimuth 0°, 90°,
+135° and 180° from the sun (160 rays per preset): on the side away from the sun the ray passes
+from sunlight into the planet's shadow before its periapsis (docs/sky.md "Limbs from orbit and
+the shadow's edge").
 """
 import argparse
 import math
@@ -59,6 +65,18 @@ def sweep_rays(preset):
     return rays
 
 
+def limb_rays(preset):
+    """(altitude_m, view zenith, sun zenith, azimuth) of the daylight limbs seen from orbit."""
+    radius_km = 3389.5 if preset == "mars" else 6360.0
+    rays = []
+    for alt in (50.0, 400.0):
+        for sun in (30.0, 60.0, 75.0, 85.0):
+            for tangent in (1.0, 5.0, 10.0, 20.0, 40.0):
+                view = 90.0 + math.degrees(math.acos((radius_km + tangent) / (radius_km + alt)))
+                rays += [(alt * 1e3, view, sun, az) for az in (0.0, 90.0, 135.0, 180.0)]
+    return rays
+
+
 def evaluate(airmass, preset, extra, rays=None):
     rows = "".join("%.9g,%.9g,%.9g,%.9g\n" % ray for ray in rays) if rays else \
         "".join("0,%g,%g,%g\n" % ray for ray in RAYS)
@@ -73,11 +91,11 @@ def evaluate(airmass, preset, extra, rays=None):
     return [values[k * n:(k + 1) * n] for k in range(count)]
 
 
-def sweep(builds, samples):
+def sweep(builds, samples, make_rays):
     print("| preset | build | samples | max | p99 | p90 | median | worst ray (altitude m, view, sun zenith, azimuth) |")
     print("|---|---|---:|---:|---:|---:|---:|---|")
     for preset in PRESETS:
-        rays = sweep_rays(preset)
+        rays = make_rays(preset)
         ref = evaluate(builds[0], preset, ["--reference"], rays)
         floor = 1e-4 * max(max(r) for r in ref)
         for build in builds:
@@ -96,10 +114,11 @@ def main():
     ap.add_argument("--airmass", default="build/bin/airmass")
     ap.add_argument("--samples", default="16,64,256", help="view samples per constituent, comma-separated")
     ap.add_argument("--sweep", action="store_true", help="299 rays per preset, summarised (see above)")
+    ap.add_argument("--limbs", action="store_true", help="with --sweep: daylight limbs from orbit (see above)")
     args = ap.parse_args()
     samples = [int(s) for s in args.samples.split(",")]
     if args.sweep:
-        sweep(args.airmass.split(","), samples)
+        sweep(args.airmass.split(","), samples, limb_rays if args.limbs else sweep_rays)
         return
     print("| preset | view zenith | sun zenith | azimuth | " + " | ".join("%d samples" % s for s in samples) + " |")
     print("|---|---:|---:|---:|" + "---:|" * len(samples))
