@@ -247,6 +247,40 @@ TEST(SingleScattering, HazyAirAtLowSunMatchesNestedQuadrature) {
     std::printf("hazy air at low sun, 16 nodes, worst |in-scatter - nested quadrature| / in-scatter: %.2e\n", worst);
 }
 
+// Rays through a tangent altitude from an observer at h, against the nested quadrature of the
+// exact Chapman method: the in-scatter (Rayleigh + Mie) of each ray at 16 nodes within `tol` of
+// it at every wavelength; returns the worst relative error.
+struct TangentRay {
+    double tangent_m, sun_zenith_deg, azimuth_deg;
+};
+double worst_against_nested_quadrature(const char* preset, double h, const std::vector<TangentRay>& rays,
+                                       double tol) {
+    const Scene scene = load_preset(preset);
+    EvalSettings exact;
+    exact.chapman = ChapmanMethod::exact;
+    const Atmosphere ref_atm = compile_atmosphere(scene, kWavelengths, exact);
+    const Atmosphere atm = compile_atmosphere(scene, kWavelengths);
+    const double R = scene.planet.radius_m;
+    double worst = 0.0;
+    for (const TangentRay& k : rays) {
+        const double vz = 90.0 + std::acos((R + k.tangent_m) / (R + h)) * 180.0 / std::numbers::pi;
+        const ViewRay ray = view(h, vz, k.sun_zenith_deg, k.azimuth_deg);
+        Result ref, got;
+        single_scattering_reference(scene, ref_atm, ray, ref.out(), 1e-8);
+        single_scattering(atm, ray, got.out());
+        for (int w = 0; w < 3; ++w) {
+            const double total = ref.R[w] + ref.M[w];
+            EXPECT_GT(total, 0.0);
+            const double e = std::abs(got.R[w] + got.M[w] - total) / total;
+            worst = std::max(worst, e);
+            EXPECT_LE(e, tol) << preset << ", " << h << " m, tangent altitude " << k.tangent_m << " m, sun zenith "
+                              << k.sun_zenith_deg << "°, azimuth " << k.azimuth_deg << "°, λ=" << kWavelengths[w]
+                              << ": " << got.R[w] + got.M[w] << " against " << total;
+        }
+    }
+    return worst;
+}
+
 // Rays that pass below an observer at altitude, through their periapsis, at twilight: the
 // closed-form map's density |t − t_d| has a kink at the periapsis, and the sun's optical depth
 // does not follow the density (the light comes from the side of the periapsis nearer the sun).
@@ -254,30 +288,10 @@ TEST(SingleScattering, HazyAirAtLowSunMatchesNestedQuadrature) {
 // as N⁻² (up to 2.6 % at 16 nodes, 0.37 % at 64); the pieces split there, their nodes shared by
 // measured estimates, are within 0.2 % at 16 (docs/sky.md "Rays through a periapsis").
 TEST(SingleScattering, RaysThroughAPeriapsisAtTwilightMatchNestedQuadrature) {
-    const Scene scene = load_preset("earth");
-    EvalSettings exact;
-    exact.chapman = ChapmanMethod::exact;
-    const Atmosphere ref_atm = compile_atmosphere(scene, kWavelengths, exact);
-    const Atmosphere atm = compile_atmosphere(scene, kWavelengths);
-    const double R = scene.planet.radius_m, h = 20e3;
-    double worst = 0.0;
+    std::vector<TangentRay> rays;
     for (double tangent_m : {1e3, 3e3, 5e3, 12e3})
-        for (double azimuth : {0.0, 45.0, 90.0}) {
-            const double vz = 90.0 + std::acos((R + tangent_m) / (R + h)) * 180.0 / std::numbers::pi;
-            const ViewRay ray = view(h, vz, 94.0, azimuth);  // sun 4° below the horizon
-            Result ref, got;
-            single_scattering_reference(scene, ref_atm, ray, ref.out(), 1e-8);
-            single_scattering(atm, ray, got.out());
-            for (int w = 0; w < 3; ++w) {
-                const double total = ref.R[w] + ref.M[w];
-                ASSERT_GT(total, 0.0);
-                const double e = std::abs(got.R[w] + got.M[w] - total) / total;
-                worst = std::max(worst, e);
-                EXPECT_LE(e, 5e-3) << "tangent altitude " << tangent_m << " m, azimuth " << azimuth
-                                   << "°, λ=" << kWavelengths[w] << ": " << got.R[w] + got.M[w] << " against "
-                                   << total;
-            }
-        }
+        for (double azimuth : {0.0, 45.0, 90.0}) rays.push_back({tangent_m, 94.0, azimuth});  // sun 4° below
+    const double worst = worst_against_nested_quadrature("earth", 20e3, rays, 5e-3);
     std::printf("rays through a periapsis from 20 km at sun -4°, 16 nodes, worst relative error: %.2e\n", worst);
 }
 
@@ -287,31 +301,10 @@ TEST(SingleScattering, RaysThroughAPeriapsisAtTwilightMatchNestedQuadrature) {
 // the closed-form map assumes; `mars` (dust of vertical optical depth 0.5) shows it most.
 // docs/sky.md "Limbs from orbit and the shadow's edge": up to 10.8 % at 16 nodes before.
 TEST(SingleScattering, LimbsFromOrbitIntoThePlanetsShadowMatchNestedQuadrature) {
-    const Scene scene = load_preset("mars");
-    EvalSettings exact;
-    exact.chapman = ChapmanMethod::exact;
-    const Atmosphere ref_atm = compile_atmosphere(scene, kWavelengths, exact);
-    const Atmosphere atm = compile_atmosphere(scene, kWavelengths);
-    const double R = scene.planet.radius_m;
-    const double h = 400e3;
-    double worst = 0.0;
+    std::vector<TangentRay> rays;
     for (double tangent_m : {1e3, 5e3, 10e3, 20e3})
-        for (double sun_zenith : {60.0, 75.0}) {
-            const double vz = 90.0 + std::acos((R + tangent_m) / (R + h)) * 180.0 / std::numbers::pi;
-            const ViewRay ray = view(h, vz, sun_zenith, 180.0);  // the limb away from the sun
-            Result ref, got;
-            single_scattering_reference(scene, ref_atm, ray, ref.out(), 1e-8);
-            single_scattering(atm, ray, got.out());
-            for (int w = 0; w < 3; ++w) {
-                const double total = ref.R[w] + ref.M[w];
-                ASSERT_GT(total, 0.0);
-                const double e = std::abs(got.R[w] + got.M[w] - total) / total;
-                worst = std::max(worst, e);
-                EXPECT_LE(e, 1e-2) << "tangent altitude " << tangent_m << " m, sun zenith " << sun_zenith
-                                   << "°, λ=" << kWavelengths[w] << ": " << got.R[w] + got.M[w] << " against "
-                                   << total;
-            }
-        }
+        for (double sun_zenith : {60.0, 75.0}) rays.push_back({tangent_m, sun_zenith, 180.0});  // away from the sun
+    const double worst = worst_against_nested_quadrature("mars", 400e3, rays, 1e-2);
     std::printf("mars limbs from 400 km into the shadow, 16 nodes, worst relative error: %.2e\n", worst);
 }
 
