@@ -377,11 +377,11 @@ double vertical_column_m(const DensityProfile& p, double top_altitude_m) {
 
 // Gauss–Kronrod 61 on [a, b], bisected while its error estimate exceeds both rel_tol of the
 // piece's own estimate and an absolute tolerance halved with the piece: at the top the larger of
-// rel_tol of the whole estimate (Boost's own recursion, which has only these two) and `floor`.
-// Without the floor an integrand whose rounding is near rel_tol of its value never passes: ρ of
-// a tent a few millimetres below its top, (top − h) of an altitude rounded to a double, is noisy
-// at 1e-9 of itself, and a sun ray from there took 2²⁵ pieces (58 s; `earth` 400 km, tangent
-// 40 km, sun 85°, in single_scattering_reference).
+// rel_tol of the whole estimate (Boost's own recursion has only these two) and the caller's
+// abs_tol. Without that floor an integrand whose rounding is near rel_tol of its value never
+// passes: ρ of a tent a few millimetres below its top, (top − h) of an altitude rounded to a
+// double, is noisy at 1e-9 of itself, and a sun ray from there took 2²⁵ pieces (58 s; `earth`
+// 400 km, tangent 40 km, sun 85°, in single_scattering_reference).
 template <class F>
 double adaptive_gk61(const F& f, double a, double b, double rel_tol, double abs_tol, int depth, bool top = true) {
     double error = 0.0;
