@@ -308,6 +308,19 @@ TEST(SingleScattering, LimbsFromOrbitIntoThePlanetsShadowMatchNestedQuadrature) 
     std::printf("mars limbs from 400 km into the shadow, 16 nodes, worst relative error: %.2e\n", worst);
 }
 
+// Twilight rays toward the sun from altitude, through a periapsis the sun still lights from
+// above the horizontal, while the observer sees it below: along the near side the sun's optical
+// depth grows toward the observer, where the closed-form map (κ ≈ 10, steep) has it fall with
+// the density, and its nodes crowd at the observer. The probes' check, run wherever |κ| ≥ 5,
+// finds it. docs/sky.md "Limbs from orbit and the shadow's edge": 2.4–4.8 % at 16 nodes before.
+TEST(SingleScattering, TwilightRaysTowardTheSunFromAltitudeMatchNestedQuadrature) {
+    std::vector<TangentRay> rays;
+    for (double tangent_m : {5e3, 9.2e3})
+        for (double azimuth : {0.0, 28.0}) rays.push_back({tangent_m, 94.0, azimuth});  // sun 4° below
+    const double worst = worst_against_nested_quadrature("mars", 20e3, rays, 5e-3);
+    std::printf("mars twilight rays toward the sun from 20 km, 16 nodes, worst relative error: %.2e\n", worst);
+}
+
 // ---- extremes: finite, non-negative, T in [0, 1] ---------------------------------------
 
 void expect_sane(const Result& r, const std::string& what) {
