@@ -48,17 +48,21 @@ RAYS = [
 WAVELENGTHS = "450,550,650"
 
 
+def through_tangent(preset, alt_km, tangent_km):
+    """View zenith (degrees) of the ray from alt_km whose periapsis is at tangent_km."""
+    radius_km = 3389.5 if preset == "mars" else 6360.0
+    return 90.0 + math.degrees(math.acos((radius_km + tangent_km) / (radius_km + alt_km)))
+
+
 def sweep_rays(preset):
     """(altitude_m, view zenith, sun zenith, azimuth) of the sweep."""
-    radius_km = 3389.5 if preset == "mars" else 6360.0
     rays = []
     for alt in (2.0, 20.0, 50.0, 400.0):
         for sun in (85.0, 92.0, 94.0, 97.0):
             for tangent in (None, 1.0, 5.0, 15.0):
                 if tangent is not None and tangent >= alt:
                     continue
-                view = 90.5 if tangent is None else \
-                    90.0 + math.degrees(math.acos((radius_km + tangent) / (radius_km + alt)))
+                view = 90.5 if tangent is None else through_tangent(preset, alt, tangent)
                 rays += [(alt * 1e3, view, sun, az) for az in (0.0, 45.0, 90.0, 180.0)]
     rays += [(0.0, view, sun, az) for view in (60.0, 80.0, 85.0, 89.0, 89.9)
              for sun in (60.0, 85.0, 88.0, 92.0, 94.0) for az in (0.0, 90.0, 180.0)]
@@ -67,12 +71,11 @@ def sweep_rays(preset):
 
 def limb_rays(preset):
     """(altitude_m, view zenith, sun zenith, azimuth) of the daylight limbs seen from orbit."""
-    radius_km = 3389.5 if preset == "mars" else 6360.0
     rays = []
     for alt in (50.0, 400.0):
         for sun in (30.0, 60.0, 75.0, 85.0):
             for tangent in (1.0, 5.0, 10.0, 20.0, 40.0):
-                view = 90.0 + math.degrees(math.acos((radius_km + tangent) / (radius_km + alt)))
+                view = through_tangent(preset, alt, tangent)
                 rays += [(alt * 1e3, view, sun, az) for az in (0.0, 90.0, 135.0, 180.0)]
     return rays
 
